@@ -1,0 +1,1 @@
+//! The shelling machine hardware crate (filled by later issues).

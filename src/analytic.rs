@@ -1,0 +1,1 @@
+//! Analytic form factors (placeholder, replaced by the analytic-module work).

@@ -1,0 +1,1 @@
+//! Scene generators (placeholder, replaced by the generator work).

@@ -1,0 +1,11 @@
+//! shellsim: the host side and test bench of the shelling ray-casting machine — scenes,
+//! grid, ray sets, the float reference tracer, analytic form factors, and the CLI's jobs.
+
+pub mod analytic;
+pub mod error;
+pub mod gen;
+pub mod obj;
+pub mod scene;
+
+pub use error::{Error, Result};
+pub use scene::{Aabb, Patch, Scene, Spectrum};

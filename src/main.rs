@@ -1,0 +1,2 @@
+//! The `shellsim` command line.
+fn main() {}

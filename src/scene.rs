@@ -1,0 +1,426 @@
+//! Scenes: planar convex patches (triangles and quads) with emission and reflectance, read
+//! from JSON (or OBJ through `obj`), validated with errors that name the file and the patch.
+
+use crate::error::{write_atomic, Error, Result};
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Most patches a scene may hold: patch ids are 24-bit in the hardware's records.
+pub const MAX_PATCHES: usize = 1 << 24;
+
+/// Relative tolerance of the planarity check: a vertex may lie off the patch's plane by this
+/// fraction of the patch's diameter (rounding in generated scenes is ~1e-16).
+pub const PLANARITY_TOL: f64 = 1e-9;
+
+/// A grey value or an RGB triple; grey `g` means `[g, g, g]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum Spectrum {
+    Grey(f64),
+    Rgb([f64; 3]),
+}
+
+impl Spectrum {
+    /// The three channels.
+    pub fn rgb(self) -> [f64; 3] {
+        match self {
+            Spectrum::Grey(g) => [g; 3],
+            Spectrum::Rgb(c) => c,
+        }
+    }
+    /// True when some channel is above zero.
+    pub fn is_nonzero(self) -> bool {
+        self.rgb().iter().any(|&c| c > 0.0)
+    }
+}
+
+impl Default for Spectrum {
+    fn default() -> Self {
+        Spectrum::Grey(0.0)
+    }
+}
+
+/// One patch: a planar convex polygon of 3 or 4 vertices. The front side is the one from
+/// which the vertices are seen counter-clockwise; its id is its index in the scene.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Patch {
+    #[serde(with = "vec3_list")]
+    pub vertices: Vec<DVec3>,
+    #[serde(default)]
+    pub emission: Spectrum,
+    #[serde(default = "default_reflectance")]
+    pub reflectance: Spectrum,
+}
+
+fn default_reflectance() -> Spectrum {
+    Spectrum::Grey(0.5)
+}
+
+/// An axis-aligned box `[lo, hi]` (closed).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub lo: DVec3,
+    pub hi: DVec3,
+}
+
+impl Aabb {
+    /// True when `p` lies in the closed box.
+    pub fn contains(&self, p: DVec3) -> bool {
+        p.cmpge(self.lo).all() && p.cmple(self.hi).all()
+    }
+    /// The box's size along each axis.
+    pub fn extent(&self) -> DVec3 {
+        self.hi - self.lo
+    }
+}
+
+/// A scene: a name, the bounds every patch lies in, and the patches.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    pub name: String,
+    pub bounds: Aabb,
+    pub patches: Vec<Patch>,
+}
+
+impl Patch {
+    /// A grey patch with the given vertices.
+    pub fn new(vertices: Vec<DVec3>, emission: f64, reflectance: f64) -> Self {
+        Patch {
+            vertices,
+            emission: Spectrum::Grey(emission),
+            reflectance: Spectrum::Grey(reflectance),
+        }
+    }
+
+    /// Newell's normal: twice the vector area; its length is twice the polygon's area and it
+    /// points to the front side (counter-clockwise vertices).
+    pub fn area_vector(&self) -> DVec3 {
+        let v = &self.vertices;
+        let mut n = DVec3::ZERO;
+        for i in 0..v.len() {
+            let a = v[i];
+            let b = v[(i + 1) % v.len()];
+            n += a.cross(b);
+        }
+        n
+    }
+
+    /// The unit normal of the front side.
+    pub fn normal(&self) -> DVec3 {
+        self.area_vector().normalize()
+    }
+
+    /// The patch's area.
+    pub fn area(&self) -> f64 {
+        0.5 * self.area_vector().length()
+    }
+
+    /// The vertex average (inside, since the patch is convex).
+    pub fn centroid(&self) -> DVec3 {
+        self.vertices.iter().copied().sum::<DVec3>() / self.vertices.len() as f64
+    }
+
+    /// The longest distance between two vertices.
+    pub fn diameter(&self) -> f64 {
+        let v = &self.vertices;
+        let mut d: f64 = 0.0;
+        for i in 0..v.len() {
+            for j in i + 1..v.len() {
+                d = d.max(v[i].distance(v[j]));
+            }
+        }
+        d
+    }
+
+    /// Checks the patch's own geometry; `Err` holds what is wrong (without file or id).
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let v = &self.vertices;
+        if v.len() < 3 {
+            return Err(format!(
+                "has {} vertices; a patch needs 3 (triangle) or 4 (quad)",
+                v.len()
+            ));
+        }
+        if v.len() > 4 {
+            return Err(format!(
+                "has {} vertices; a patch is a triangle or a quad (split it, or import it from OBJ, which splits larger faces)",
+                v.len()
+            ));
+        }
+        for (k, p) in v.iter().enumerate() {
+            if !p.is_finite() {
+                return Err(format!(
+                    "vertex {k} is not a finite point: [{}, {}, {}]",
+                    p.x, p.y, p.z
+                ));
+            }
+        }
+        for (what, s) in [
+            ("emission", self.emission),
+            ("reflectance", self.reflectance),
+        ] {
+            for c in s.rgb() {
+                if !c.is_finite() || c < 0.0 {
+                    return Err(format!(
+                        "{what} {c} is out of range (must be finite and >= 0)"
+                    ));
+                }
+            }
+        }
+        if self.reflectance.rgb().iter().any(|&c| c > 1.0) {
+            return Err(format!(
+                "reflectance {:?} is out of range (must be at most 1)",
+                self.reflectance.rgb()
+            ));
+        }
+        let diam = self.diameter();
+        for i in 0..v.len() {
+            if v[i] == v[(i + 1) % v.len()] {
+                return Err(format!(
+                    "has zero area: vertices {i} and {} coincide",
+                    (i + 1) % v.len()
+                ));
+            }
+        }
+        let av = self.area_vector();
+        let area = 0.5 * av.length();
+        if area <= 1e-12 * diam * diam || area == 0.0 {
+            return Err(format!(
+                "has zero area ({area:e}): its vertices are collinear"
+            ));
+        }
+        let n = av / av.length();
+        let d0 = n.dot(v[0]);
+        for (k, p) in v.iter().enumerate() {
+            let off = (n.dot(*p) - d0).abs();
+            if off > PLANARITY_TOL * diam {
+                return Err(format!(
+                    "is not planar: vertex {k} lies {off:e} off the plane of the others (tolerance {:e})",
+                    PLANARITY_TOL * diam
+                ));
+            }
+        }
+        for i in 0..v.len() {
+            let a = v[i];
+            let b = v[(i + 1) % v.len()];
+            let c = v[(i + 2) % v.len()];
+            let turn = (b - a).cross(c - b).dot(n);
+            if turn <= 1e-12 * diam * diam {
+                return Err(format!(
+                    "is not convex: the turn at vertex {} goes the wrong way or is straight",
+                    (i + 1) % v.len()
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Scene {
+    /// Checks the bounds and every patch; the error names `file` and the patch.
+    pub fn validate(&self, file: &Path) -> Result<()> {
+        let b = self.bounds;
+        if !b.lo.is_finite() || !b.hi.is_finite() || !b.lo.cmplt(b.hi).all() {
+            return Err(Error::input(
+                file,
+                "bounds",
+                format!(
+                    "bounds {:?} - {:?} must be finite with lo < hi on every axis",
+                    b.lo.to_array(),
+                    b.hi.to_array()
+                ),
+            ));
+        }
+        if self.patches.is_empty() {
+            return Err(Error::input(file, "patches", "the scene has no patches"));
+        }
+        if self.patches.len() > MAX_PATCHES {
+            return Err(Error::input(
+                file,
+                "patches",
+                format!(
+                    "{} patches is more than the {MAX_PATCHES} a scene may hold",
+                    self.patches.len()
+                ),
+            ));
+        }
+        for (id, p) in self.patches.iter().enumerate() {
+            p.check()
+                .map_err(|what| Error::input(file, format!("patch {id}"), what))?;
+            for (k, v) in p.vertices.iter().enumerate() {
+                if !b.contains(*v) {
+                    return Err(Error::input(
+                        file,
+                        format!("patch {id}"),
+                        format!(
+                            "vertex {k} [{}, {}, {}] lies outside the bounds {:?} - {:?}",
+                            v.x,
+                            v.y,
+                            v.z,
+                            b.lo.to_array(),
+                            b.hi.to_array()
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Reads a scene by its extension: `.json` (the schema in README.md) or `.obj`
+    /// (Wavefront, see [`crate::obj`]), and validates it.
+    pub fn load(path: &Path) -> Result<Scene> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("obj") => {
+                crate::obj::import(path, &crate::obj::ImportOptions::default()).map(|(s, _)| s)
+            }
+            _ => Scene::load_json(path),
+        }
+    }
+
+    /// Reads and validates a JSON scene.
+    pub fn load_json(path: &Path) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Scene::from_json_str(&text, path)
+    }
+
+    /// Parses and validates JSON scene text; `path` is only used to name the file in errors.
+    pub fn from_json_str(text: &str, path: &Path) -> Result<Scene> {
+        let value: serde_json::Value = serde_json::from_str(text).map_err(|e| {
+            Error::input(
+                path,
+                format!("line {} column {}", e.line(), e.column()),
+                format!("not valid JSON: {e}"),
+            )
+        })?;
+        let top: SceneFile = serde_json::from_value(value)
+            .map_err(|e| Error::input(path, "top level", e.to_string()))?;
+        let mut patches = Vec::with_capacity(top.patches.len());
+        for (id, pv) in top.patches.into_iter().enumerate() {
+            let p: Patch = serde_json::from_value(pv)
+                .map_err(|e| Error::input(path, format!("patch {id}"), e.to_string()))?;
+            patches.push(p);
+        }
+        let scene = Scene {
+            name: top.name,
+            bounds: Aabb {
+                lo: DVec3::from_array(top.bounds[0]),
+                hi: DVec3::from_array(top.bounds[1]),
+            },
+            patches,
+        };
+        scene.validate(path)?;
+        Ok(scene)
+    }
+
+    /// The scene as JSON text (the schema in README.md), one patch per line.
+    pub fn to_json_string(&self) -> String {
+        let mut s = String::new();
+        s.push_str("{\n  \"name\": ");
+        s.push_str(&serde_json::to_string(&self.name).expect("a string serializes"));
+        s.push_str(",\n  \"bounds\": ");
+        let bounds = [self.bounds.lo.to_array(), self.bounds.hi.to_array()];
+        s.push_str(&serde_json::to_string(&bounds).expect("numbers serialize"));
+        s.push_str(",\n  \"patches\": [\n");
+        for (i, p) in self.patches.iter().enumerate() {
+            s.push_str("    ");
+            s.push_str(&serde_json::to_string(p).expect("a patch serializes"));
+            if i + 1 < self.patches.len() {
+                s.push(',');
+            }
+            s.push('\n');
+        }
+        s.push_str("  ]\n}\n");
+        s
+    }
+
+    /// Writes the scene as JSON, atomically.
+    pub fn save_json(&self, path: &Path) -> Result<()> {
+        write_atomic(path, self.to_json_string().as_bytes())
+    }
+
+    /// The total area of all patches.
+    pub fn total_area(&self) -> f64 {
+        self.patches.iter().map(Patch::area).sum()
+    }
+}
+
+/// The top level of a JSON scene file; patches are parsed one by one so that an error can
+/// name the patch.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    name: String,
+    bounds: [[f64; 3]; 2],
+    patches: Vec<serde_json::Value>,
+}
+
+/// Serde glue: a list of `[x, y, z]` arrays as `Vec<DVec3>`.
+mod vec3_list {
+    use glam::DVec3;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(v: &[DVec3], s: S) -> Result<S::Ok, S::Error> {
+        let arrays: Vec<[f64; 3]> = v.iter().map(|p| p.to_array()).collect();
+        arrays.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<DVec3>, D::Error> {
+        let arrays: Vec<[f64; 3]> = Vec::deserialize(d)?;
+        Ok(arrays.into_iter().map(DVec3::from_array).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad(z: f64) -> Patch {
+        Patch::new(
+            vec![
+                DVec3::new(0.0, 0.0, z),
+                DVec3::new(1.0, 0.0, z),
+                DVec3::new(1.0, 1.0, z),
+                DVec3::new(0.0, 1.0, z),
+            ],
+            0.0,
+            0.5,
+        )
+    }
+
+    #[test]
+    fn unit_square_geometry() {
+        let p = quad(0.0);
+        assert_eq!(p.area(), 1.0);
+        assert_eq!(p.normal(), DVec3::Z);
+        assert!(p.check().is_ok());
+    }
+
+    #[test]
+    fn json_round_trip_is_exact() {
+        let s = Scene {
+            name: "t".into(),
+            bounds: Aabb {
+                lo: DVec3::ZERO,
+                hi: DVec3::ONE,
+            },
+            patches: vec![quad(0.1), quad(0.7)],
+        };
+        let text = s.to_json_string();
+        let back = Scene::from_json_str(&text, Path::new("t.json")).unwrap();
+        assert_eq!(s, back);
+    }
+
+    #[test]
+    fn bowtie_is_not_convex() {
+        let mut p = quad(0.0);
+        p.vertices.swap(2, 3);
+        let e = p.check().unwrap_err();
+        assert!(e.contains("convex") || e.contains("area"), "{e}");
+    }
+}
