@@ -2,6 +2,7 @@
 //! grid, ray sets, the float reference tracer, analytic form factors, and the CLI's jobs.
 
 pub mod analytic;
+pub mod cli;
 pub mod error;
 pub mod gen;
 pub mod obj;
