@@ -5,8 +5,11 @@ pub mod analytic;
 pub mod cli;
 pub mod error;
 pub mod gen;
+pub mod grid;
 pub mod obj;
+pub mod rays;
 pub mod scene;
+pub mod trace;
 
 pub use error::{Error, Result};
 pub use scene::{Aabb, Patch, Scene, Spectrum};
