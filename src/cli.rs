@@ -1,11 +1,19 @@
 //! Command-line interface: argument types (clap) and the jobs they run.
 
-use crate::error::Result;
+use crate::error::{write_atomic, Error, Result};
+use crate::grid::DEFAULT_CELL;
+use crate::rays::{hemisphere_rays, Directions, Origins, PAPER_RAYS};
+use crate::reference::{self, ReferenceReport, RunInfo};
 use crate::scene::Scene;
+use crate::trace::Tracer;
 use clap::{Parser, Subcommand};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-/// Cycle-level model of the shelling ray-casting machine for radiosity form factors.
+/// Most rays one run may cast.
+pub const MAX_RAYS: usize = 100_000_000;
+
+/// Cycle-level model of the shelling ray-casting machine (Shen, Laarakker & Deprettere, 1992)
+/// for radiosity form factors. With no subcommand: the default job on built-in inputs.
 #[derive(Parser, Debug)]
 #[command(name = "shellsim", version, about, long_about = None)]
 pub struct Cli {
@@ -18,6 +26,8 @@ pub enum Command {
     /// Generate, inspect or import scenes.
     #[command(subcommand)]
     Scene(SceneCmd),
+    /// Form factors from one source patch by the float reference tracer.
+    Reference(ReferenceArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -26,19 +36,147 @@ pub enum SceneCmd {
     Info {
         /// The scene file (.json or .obj).
         file: PathBuf,
+        /// Grid cell size for the grid statistics.
+        #[arg(long, default_value_t = DEFAULT_CELL)]
+        cell: f64,
     },
+}
+
+/// Arguments of `shellsim reference`.
+#[derive(clap::Args, Debug)]
+pub struct ReferenceArgs {
+    /// The scene file (.json or .obj).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// The source patch id.
+    #[arg(long)]
+    pub source: u32,
+    /// Number of rays.
+    #[arg(long, default_value_t = PAPER_RAYS)]
+    pub rays: usize,
+    /// Direction set.
+    #[arg(long, value_enum, default_value_t = Directions::Rings)]
+    pub directions: Directions,
+    /// Seed of the origins (and of Malley/random directions).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Grid cell size.
+    #[arg(long, default_value_t = DEFAULT_CELL)]
+    pub cell: f64,
+    /// Write the full result as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
 }
 
 /// Runs the job the command line asks for.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
-        Some(Command::Scene(SceneCmd::Info { file })) => {
-            let scene = Scene::load(&file)?;
-            println!("scene     {}", scene.name);
-            println!("patches   {}", scene.patches.len());
-            println!("area      {:.6}", scene.total_area());
+        Some(Command::Scene(SceneCmd::Info { file, cell })) => scene_info(&file, cell),
+        Some(Command::Reference(a)) => {
+            let scene = Scene::load(&a.scene)?;
+            let report = reference_job(&scene, &a)?;
+            print_reference(&report, &scene);
+            if let Some(out) = &a.json {
+                let text = serde_json::to_string_pretty(&report).expect("a report serializes");
+                write_atomic(out, (text + "\n").as_bytes())?;
+            }
             Ok(())
         }
         None => Ok(()),
     }
+}
+
+/// Checks a source id and a ray count against the scene.
+pub fn check_source_and_rays(scene: &Scene, file: &Path, source: u32, rays: usize) -> Result<()> {
+    if source as usize >= scene.patches.len() {
+        return Err(Error::input(
+            file,
+            "--source",
+            format!(
+                "source patch {source} does not exist (the scene has patches 0..{})",
+                scene.patches.len() - 1
+            ),
+        ));
+    }
+    if rays == 0 || rays > MAX_RAYS {
+        return Err(Error::Usage(format!(
+            "--rays {rays} is out of range (1..={MAX_RAYS})"
+        )));
+    }
+    Ok(())
+}
+
+fn reference_job(scene: &Scene, a: &ReferenceArgs) -> Result<ReferenceReport> {
+    check_source_and_rays(scene, &a.scene, a.source, a.rays)?;
+    let tracer = Tracer::new(scene, a.cell)?;
+    let src = &scene.patches[a.source as usize];
+    let set = hemisphere_rays(src, a.rays, a.directions, Origins::Patch, a.seed);
+    let info = RunInfo {
+        scene: &scene.name,
+        source: a.source,
+        directions: a.directions,
+        seed: a.seed,
+    };
+    Ok(reference::run(&tracer, &set, &info, true))
+}
+
+fn print_reference(r: &ReferenceReport, scene: &Scene) {
+    println!(
+        "{} from patch {}: {} {:?} rays, {} escaped, ΣF = {:.12}",
+        r.scene, r.source, r.rays, r.directions, r.escaped, r.weight_sum
+    );
+    println!(
+        "{:.3} s, {:.3} M rays/s, {:.1} cells and {:.1} patch tests per ray",
+        r.wall_s,
+        r.rays_per_s / 1e6,
+        r.cells_visited as f64 / r.rays as f64,
+        r.patch_tests as f64 / r.rays as f64
+    );
+    let mut top = r.form_factors.clone();
+    top.sort_by(|a, b| b.value.total_cmp(&a.value).then(a.patch.cmp(&b.patch)));
+    println!("{:>8}  {:>12}  {:>10}", "patch", "F", "area");
+    for f in top.iter().take(10) {
+        println!(
+            "{:>8}  {:>12.8}  {:>10.6}",
+            f.patch,
+            f.value,
+            scene.patches[f.patch as usize].area()
+        );
+    }
+    if top.len() > 10 {
+        println!("{:>8}  ({} more patches hit)", "…", top.len() - 10);
+    }
+}
+
+fn scene_info(file: &Path, cell: f64) -> Result<()> {
+    let scene = Scene::load(file)?;
+    let tracer = Tracer::new(&scene, cell)?;
+    let g = &tracer.grid;
+    let tris = scene.patches.iter().filter(|p| p.vertices.len() == 3).count();
+    let emitters = scene.patches.iter().filter(|p| p.emission.is_nonzero()).count();
+    println!("scene        {}", scene.name);
+    println!(
+        "bounds       {:?} - {:?}",
+        scene.bounds.lo.to_array(),
+        scene.bounds.hi.to_array()
+    );
+    println!(
+        "patches      {} ({} triangles, {} quads, {} emitting)",
+        scene.patches.len(),
+        tris,
+        scene.patches.len() - tris,
+        emitters
+    );
+    println!("total area   {:.6}", scene.total_area());
+    println!(
+        "grid         {}×{}×{} cells of {}, {} nonempty, {} cell entries ({:.2} per patch)",
+        g.dims[0],
+        g.dims[1],
+        g.dims[2],
+        g.cell_size,
+        g.nonempty_cells(),
+        g.entries(),
+        g.entries() as f64 / scene.patches.len() as f64
+    );
+    Ok(())
 }

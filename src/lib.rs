@@ -7,7 +7,9 @@ pub mod error;
 pub mod gen;
 pub mod grid;
 pub mod obj;
+pub mod progress;
 pub mod rays;
+pub mod reference;
 pub mod scene;
 pub mod trace;
 

@@ -1,0 +1,50 @@
+//! Progress bars for long jobs: drawn on stderr only when it is a terminal and only once the
+//! job has run for a second, so short runs and pipes stay clean.
+
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use std::io::IsTerminal;
+use std::time::{Duration, Instant};
+
+/// A progress bar that appears after [`Progress::DELAY`] on a terminal, never elsewhere.
+pub struct Progress {
+    bar: ProgressBar,
+    start: Instant,
+    shown: bool,
+    terminal: bool,
+}
+
+impl Progress {
+    /// How long a job runs before its bar appears.
+    pub const DELAY: Duration = Duration::from_secs(1);
+
+    /// A bar for `len` units of work called `what`.
+    pub fn new(len: u64, what: &str) -> Self {
+        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
+        bar.set_style(
+            ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} ({eta} left)")
+                .expect("a valid template")
+                .progress_chars("=> "),
+        );
+        bar.set_message(what.to_string());
+        Progress {
+            bar,
+            start: Instant::now(),
+            shown: false,
+            terminal: std::io::stderr().is_terminal() && std::env::var_os("CI").is_none(),
+        }
+    }
+
+    /// Adds `n` units of work done.
+    pub fn inc(&mut self, n: u64) {
+        self.bar.inc(n);
+        if !self.shown && self.terminal && self.start.elapsed() >= Self::DELAY {
+            self.bar.set_draw_target(ProgressDrawTarget::stderr());
+            self.shown = true;
+        }
+    }
+
+    /// Removes the bar.
+    pub fn finish(self) {
+        self.bar.finish_and_clear();
+    }
+}
