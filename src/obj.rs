@@ -1,28 +1,760 @@
-//! Wavefront OBJ import (placeholder signature, replaced by the OBJ work).
+//! Wavefront OBJ import through `tobj`: every face becomes a patch, in file order; faces of
+//! more than 4 vertices are split into triangle fans; `.mtl` colours become reflectance
+//! (`Kd`) and emission (`Ke`).
+//!
+//! Errors name the file and the face: faces are numbered from 1 in file order (as OBJ
+//! numbers its vertices), with the line the face is on and the patch id it became, e.g.
+//! `scene.obj: face 7 (line 23, patch 9): is not planar: ...`.
+//!
+//! `tobj` does the parsing. Around it this module does only three small things to the text:
+//! it blanks `vt`/`vn` lines (texture coordinates and normals are not used, and dropping
+//! them avoids index arithmetic in `tobj` that overflows on bad `vt`/`vn` indices), it
+//! notes which `f`/`l` statement is on which line (`tobj` reads both as faces: `l` line
+//! elements are skipped, `f` faces of fewer than 3 vertices are errors), and it expands
+//! the one-number form `Kd r` of `.mtl` colours to `Kd r r r` (the MTL spec's meaning),
+//! which `tobj` would otherwise panic on.
 
 use crate::error::{Error, Result};
-use crate::scene::{Aabb, Scene};
+use crate::scene::{Aabb, Patch, Scene, Spectrum, PLANARITY_TOL};
+use glam::DVec3;
+use std::cell::RefCell;
 use std::path::Path;
 
 /// How an OBJ file becomes a scene.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug)]
 pub struct ImportOptions {
     /// The scene bounds; `None`: the vertices' bounding box (a flat axis padded).
     pub bounds: Option<Aabb>,
+    /// Reflectance of faces without a material `Kd` (default 0.5).
+    pub reflectance: f64,
+    /// Emission of faces without a material `Ke` (default 0).
+    pub emission: f64,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        ImportOptions {
+            bounds: None,
+            reflectance: 0.5,
+            emission: 0.0,
+        }
+    }
 }
 
 /// What the import did.
 #[derive(Clone, Debug, Default)]
 pub struct ImportReport {
-    /// Faces read from the file.
+    /// Faces (`f` statements) read from the file.
     pub faces: usize,
     /// Faces of more than 4 vertices that were split into triangles.
     pub split_faces: usize,
+    /// Triangles the split faces became.
+    pub split_triangles: usize,
     /// Patches in the scene.
     pub patches: usize,
+    /// Line elements (`l` statements) skipped: they have no area.
+    pub skipped_lines: usize,
+    /// Things the user should know that did not stop the import (a missing `.mtl`).
+    pub warnings: Vec<String>,
+}
+
+impl ImportReport {
+    /// One line for the user, e.g. "12 faces, 20 patches; 3 faces with more than 4
+    /// vertices were split into 11 triangles".
+    pub fn summary(&self) -> String {
+        let mut s = format!(
+            "{} {}, {} {}",
+            self.faces,
+            plural(self.faces, "face", "faces"),
+            self.patches,
+            plural(self.patches, "patch", "patches")
+        );
+        if self.split_faces > 0 {
+            s.push_str(&format!(
+                "; {} {} with more than 4 vertices {} split into {} triangles",
+                self.split_faces,
+                plural(self.split_faces, "face", "faces"),
+                plural(self.split_faces, "was", "were"),
+                self.split_triangles
+            ));
+        }
+        if self.skipped_lines > 0 {
+            s.push_str(&format!(
+                "; {} line {} (`l`) skipped",
+                self.skipped_lines,
+                plural(self.skipped_lines, "element", "elements")
+            ));
+        }
+        s
+    }
+}
+
+fn plural<'a>(n: usize, one: &'a str, many: &'a str) -> &'a str {
+    if n == 1 {
+        one
+    } else {
+        many
+    }
+}
+
+/// Where a patch came from, for error messages.
+#[derive(Clone, Copy, Debug)]
+struct Origin {
+    /// The face, numbered from 1 in file order.
+    face: usize,
+    /// The line of the `f` statement (1-based), when known.
+    line: Option<usize>,
+    /// For a split face: this triangle (from 1) and how many the face became.
+    fan: Option<(usize, usize)>,
+}
+
+impl Origin {
+    /// "face 7 (line 23, patch 9)" and the like.
+    fn place(&self, patches: &str) -> String {
+        let mut s = format!("face {} (", self.face);
+        if let Some(line) = self.line {
+            s.push_str(&format!("line {line}, "));
+        }
+        s.push_str(patches);
+        if let Some((k, n)) = self.fan {
+            s.push_str(&format!(
+                ", triangle {k} of the {n} the face was split into"
+            ));
+        }
+        s.push(')');
+        s
+    }
+
+    fn place_of_patch(&self, id: usize) -> String {
+        self.place(&format!("patch {id}"))
+    }
+}
+
+/// An `f` or `l` statement of the file: tobj reads both as faces, in file order.
+#[derive(Clone, Copy, Debug)]
+struct Element {
+    line: usize,
+    is_face: bool,
+}
+
+/// The `f`/`l` statements of `text` with their lines, and the text handed to tobj: the same
+/// lines with `vt`/`vn` statements blanked.
+fn prepare(text: &str) -> (Vec<Element>, String) {
+    let mut elements = Vec::new();
+    let mut out = String::with_capacity(text.len());
+    for (i, line) in text.lines().enumerate() {
+        match line.split_whitespace().next() {
+            Some("vt") | Some("vn") => {}
+            first => {
+                match first {
+                    Some("f") => elements.push(Element {
+                        line: i + 1,
+                        is_face: true,
+                    }),
+                    Some("l") => elements.push(Element {
+                        line: i + 1,
+                        is_face: false,
+                    }),
+                    _ => {}
+                }
+                out.push_str(line);
+            }
+        }
+        out.push('\n');
+    }
+    (elements, out)
+}
+
+/// `.mtl` text with `Ka`/`Kd`/`Ks`/`Ke r` expanded to `... r r r`; `Err` names a colour
+/// statement of 0 or 2 numbers (on which tobj would panic).
+fn prepare_mtl(text: &str) -> std::result::Result<String, String> {
+    let mut out = String::with_capacity(text.len());
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some(kw @ ("Ka" | "Kd" | "Ks" | "Ke")) => {
+                let rest: Vec<&str> = words.collect();
+                let numeric = rest.iter().all(|w| w.parse::<f64>().is_ok());
+                if rest.len() == 1 && numeric {
+                    out.push_str(&format!("{kw} {0} {0} {0}", rest[0]));
+                } else if rest.len() < 3 && numeric {
+                    return Err(format!(
+                        "line {}: `{kw}` has {} numbers; a colour is 1 (grey) or 3 (r g b)",
+                        i + 1,
+                        rest.len()
+                    ));
+                } else {
+                    out.push_str(line);
+                }
+            }
+            _ => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    Ok(out)
 }
 
 /// Reads an OBJ file into a validated scene.
-pub fn import(path: &Path, _opts: &ImportOptions) -> Result<(Scene, ImportReport)> {
-    Err(Error::input(path, "file", "OBJ import is not built yet"))
+pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)> {
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        Error::input(
+            path,
+            "file",
+            format!(
+                "not an OBJ file: not UTF-8 text (bad byte at offset {})",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })?;
+    let (elements, text) = prepare(&text);
+
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut report = ImportReport::default();
+    let warnings = RefCell::new(Vec::new());
+    let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
+    let load = tobj::LoadOptions {
+        triangulate: false,
+        single_index: false,
+        // Points and lines are kept so that `f` statements of 1 or 2 vertices are reported
+        // (tobj reads `f` and `l` alike); `l` elements are then skipped below.
+        ignore_points: false,
+        ignore_lines: false,
+    };
+    let loaded = tobj::load_obj_buf(&mut text.as_bytes(), &load, |mtl: &Path| {
+        let full = dir.join(mtl);
+        let fail = |e: Error| {
+            mtl_error.borrow_mut().get_or_insert(e);
+            Err(tobj::LoadError::MaterialParseError)
+        };
+        match std::fs::read_to_string(&full) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+                warnings.borrow_mut().push(format!(
+                    "material library {} not found: default materials used",
+                    full.display()
+                ));
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+            Err(e) if e.kind() == std::io::ErrorKind::InvalidData => fail(Error::input(
+                &full,
+                "file",
+                "not a material library: not UTF-8 text",
+            )),
+            Err(e) => fail(Error::io(&full, e)),
+            Ok(t) => match prepare_mtl(&t) {
+                Err(what) => fail(Error::input(&full, "material library", what)),
+                Ok(t) => match tobj::load_mtl_buf(&mut t.as_bytes()) {
+                    Ok(r) => Ok(r),
+                    Err(e) => fail(Error::input(
+                        &full,
+                        "material library",
+                        format!("not a readable material library: {e}"),
+                    )),
+                },
+            },
+        }
+    });
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    report.warnings = warnings.into_inner();
+    let (models, materials) =
+        loaded.map_err(|e| Error::input(path, "file", format!("not a readable OBJ file: {e}")))?;
+    // Only a missing library can have failed here; its warning is already in the report.
+    let materials = materials.unwrap_or_default();
+
+    // tobj yields one face per `f`/`l` statement, in file order; if the count does not
+    // match the scan (it always should), faces are numbered without lines.
+    let arities = |m: &tobj::Mesh| -> Vec<usize> {
+        if m.face_arities.is_empty() {
+            vec![3; m.indices.len() / 3]
+        } else {
+            m.face_arities.iter().map(|&a| a as usize).collect()
+        }
+    };
+    let total: usize = models.iter().map(|m| arities(&m.mesh).len()).sum();
+    let elements = (total == elements.len()).then_some(elements);
+
+    let mut patches: Vec<Patch> = Vec::new();
+    let mut origins: Vec<Origin> = Vec::new();
+    let mut k = 0; // index among tobj's faces
+    for model in &models {
+        let mesh = &model.mesh;
+        let material = mesh.material_id.and_then(|id| materials.get(id));
+        let reflectance = material
+            .and_then(|m| m.diffuse)
+            .map_or(Spectrum::Grey(opts.reflectance), Spectrum::Rgb);
+        let emission = material
+            .and_then(|m| m.emissive)
+            .map_or(Spectrum::Grey(opts.emission), Spectrum::Rgb);
+        let mut start = 0;
+        for arity in arities(mesh) {
+            let element = elements.as_ref().map(|e| e[k]);
+            k += 1;
+            let idx = mesh.indices.get(start..start + arity);
+            start += arity;
+            if element.is_some_and(|e| !e.is_face) {
+                report.skipped_lines += 1;
+                continue;
+            }
+            report.faces += 1;
+            let origin = Origin {
+                face: report.faces,
+                line: element.map(|e| e.line),
+                fan: None,
+            };
+            let vertices: Option<Vec<DVec3>> = idx.and_then(|idx| {
+                idx.iter()
+                    .map(|&i| {
+                        let i = i as usize * 3;
+                        mesh.positions
+                            .get(i..i + 3)
+                            .map(|p| DVec3::new(p[0], p[1], p[2]))
+                    })
+                    .collect()
+            });
+            let Some(vertices) = vertices else {
+                return Err(Error::input(
+                    path,
+                    origin.place_of_patch(patches.len()),
+                    "tobj returned a face whose vertices are missing",
+                ));
+            };
+            if arity < 3 {
+                return Err(Error::input(
+                    path,
+                    origin.place_of_patch(patches.len()),
+                    format!(
+                        "has {arity} {}; a face needs at least 3",
+                        plural(arity, "vertex", "vertices")
+                    ),
+                ));
+            }
+            if arity <= 4 {
+                origins.push(origin);
+                patches.push(Patch {
+                    vertices,
+                    emission,
+                    reflectance,
+                });
+                continue;
+            }
+            let n = arity - 2;
+            check_polygon(&vertices).map_err(|what| {
+                let first = patches.len();
+                Error::input(
+                    path,
+                    origin.place(&format!("patches {first} to {}", first + n - 1)),
+                    what,
+                )
+            })?;
+            report.split_faces += 1;
+            report.split_triangles += n;
+            for j in 1..arity - 1 {
+                origins.push(Origin {
+                    fan: Some((j, n)),
+                    ..origin
+                });
+                patches.push(Patch {
+                    vertices: vec![vertices[0], vertices[j], vertices[j + 1]],
+                    emission,
+                    reflectance,
+                });
+            }
+        }
+    }
+    report.patches = patches.len();
+    if patches.is_empty() {
+        let what = if report.skipped_lines > 0 {
+            "has no faces (`f` statements), only line elements (`l`)"
+        } else {
+            "has no faces (`f` statements): not an OBJ scene"
+        };
+        return Err(Error::input(path, "file", what));
+    }
+    // Each patch's own geometry and materials first, so that a bad vertex is reported at
+    // its face rather than as bad bounds.
+    for (id, (p, o)) in patches.iter().zip(&origins).enumerate() {
+        p.check()
+            .map_err(|what| Error::input(path, o.place_of_patch(id), what))?;
+    }
+    let bounds = opts.bounds.unwrap_or_else(|| bounding_box(&patches));
+    let name = path
+        .file_stem()
+        .map_or_else(|| "obj".to_string(), |s| s.to_string_lossy().into_owned());
+    let scene = Scene {
+        name,
+        bounds,
+        patches,
+    };
+    scene.validate(path).map_err(|e| name_face(e, &origins))?;
+    Ok((scene, report))
+}
+
+/// The patches' bounding box, an axis of zero extent padded by 1% of the largest extent on
+/// each side.
+fn bounding_box(patches: &[Patch]) -> Aabb {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for v in patches.iter().flat_map(|p| &p.vertices) {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    let ext = hi - lo;
+    let pad = 0.01 * ext.max_element();
+    for a in 0..3 {
+        if ext[a] == 0.0 {
+            lo[a] -= pad;
+            hi[a] += pad;
+        }
+    }
+    Aabb { lo, hi }
+}
+
+/// Rewrites a "patch M" place of `scene.validate` to name the face as well.
+fn name_face(e: Error, origins: &[Origin]) -> Error {
+    match e {
+        Error::Input { file, place, what } => {
+            let place = place
+                .strip_prefix("patch ")
+                .and_then(|id| id.parse::<usize>().ok())
+                .and_then(|id| origins.get(id).map(|o| o.place_of_patch(id)))
+                .unwrap_or(place);
+            Error::Input { file, place, what }
+        }
+        other => other,
+    }
+}
+
+/// Checks that a face of more than 4 vertices is a planar, strictly convex polygon, which
+/// is what makes its triangle fan a faithful split (the fan of a non-convex or non-planar
+/// polygon has triangles that overlap or face the wrong way, each of them valid alone).
+fn check_polygon(v: &[DVec3]) -> std::result::Result<(), String> {
+    for (k, p) in v.iter().enumerate() {
+        if !p.is_finite() {
+            return Err(format!(
+                "vertex {k} is not a finite point: [{}, {}, {}]",
+                p.x, p.y, p.z
+            ));
+        }
+    }
+    let n = v.len();
+    for i in 0..n {
+        if v[i] == v[(i + 1) % n] {
+            return Err(format!(
+                "has zero area: vertices {i} and {} coincide",
+                (i + 1) % n
+            ));
+        }
+    }
+    let poly = Patch::new(v.to_vec(), 0.0, 0.0);
+    let diam = poly.diameter();
+    let av = poly.area_vector();
+    let area = 0.5 * av.length();
+    if area.is_nan() || area <= 1e-12 * diam * diam {
+        return Err(format!(
+            "has zero area ({area:e}): its vertices are collinear"
+        ));
+    }
+    let normal = av / av.length();
+    let d0 = normal.dot(v[0]);
+    for (k, p) in v.iter().enumerate() {
+        let off = (normal.dot(*p) - d0).abs();
+        if off > PLANARITY_TOL * diam {
+            return Err(format!(
+                "is not planar: vertex {k} lies {off:e} off the plane of the others (tolerance {:e})",
+                PLANARITY_TOL * diam
+            ));
+        }
+    }
+    let mut winding = 0.0;
+    for i in 0..n {
+        let a = v[i];
+        let b = v[(i + 1) % n];
+        let c = v[(i + 2) % n];
+        let (e1, e2) = (b - a, c - b);
+        let turn = e1.cross(e2).dot(normal);
+        if turn <= 1e-12 * diam * diam {
+            return Err(format!(
+                "is not convex: the turn at vertex {} goes the wrong way or is straight",
+                (i + 1) % n
+            ));
+        }
+        winding += turn.atan2(e1.dot(e2));
+    }
+    let turns = winding / std::f64::consts::TAU;
+    if (turns - 1.0).abs() > 1e-6 {
+        return Err(format!(
+            "is not convex: its edges wind {turns:.0} times around (a star polygon)"
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    /// Writes `files` (name, text) into a fresh directory; returns it and the first path.
+    fn write(files: &[(&str, &str)]) -> (tempfile::TempDir, PathBuf) {
+        let dir = tempfile::tempdir().unwrap();
+        for (name, text) in files {
+            std::fs::write(dir.path().join(name), text).unwrap();
+        }
+        let first = dir.path().join(files[0].0);
+        (dir, first)
+    }
+
+    fn import_str(text: &str) -> Result<(Scene, ImportReport)> {
+        let (_dir, path) = write(&[("t.obj", text)]);
+        import(&path, &ImportOptions::default())
+    }
+
+    fn err_str(text: &str) -> String {
+        import_str(text).unwrap_err().to_string()
+    }
+
+    fn v(x: f64, y: f64, z: f64) -> DVec3 {
+        DVec3::new(x, y, z)
+    }
+
+    const SQUARE: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n";
+
+    #[test]
+    fn quad_is_one_patch_in_order() {
+        let (s, r) = import_str(&format!("{SQUARE}f 1 2 3 4\n")).unwrap();
+        assert_eq!(s.name, "t");
+        assert_eq!(s.patches.len(), 1);
+        assert_eq!(
+            s.patches[0].vertices,
+            vec![v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)]
+        );
+        assert_eq!(s.patches[0].reflectance, Spectrum::Grey(0.5));
+        assert_eq!(s.patches[0].emission, Spectrum::Grey(0.0));
+        assert_eq!((r.faces, r.split_faces, r.patches), (1, 0, 1));
+        // Rotated vertex order is kept as written (negative indices too).
+        let (s, _) = import_str(&format!("{SQUARE}f -2 -1 -4 -3\n")).unwrap();
+        assert_eq!(
+            s.patches[0].vertices,
+            vec![v(1., 1., 0.), v(0., 1., 0.), v(0., 0., 0.), v(1., 0., 0.)]
+        );
+    }
+
+    #[test]
+    fn pentagon_is_split_into_a_fan() {
+        let text = "v 0 0 0\nv 2 0 0\nv 3 1 0\nv 1 2 0\nv -1 1 0\nf 1 2 3 4 5\n";
+        let (s, r) = import_str(text).unwrap();
+        assert_eq!(
+            (r.faces, r.split_faces, r.split_triangles, r.patches),
+            (1, 1, 3, 3)
+        );
+        let p: Vec<_> = s.patches.iter().map(|p| p.vertices.clone()).collect();
+        let (a, b, c, d, e) = (
+            v(0., 0., 0.),
+            v(2., 0., 0.),
+            v(3., 1., 0.),
+            v(1., 2., 0.),
+            v(-1., 1., 0.),
+        );
+        assert_eq!(p, vec![vec![a, b, c], vec![a, c, d], vec![a, d, e]]);
+        assert_eq!(
+            r.summary(),
+            "1 face, 3 patches; 1 face with more than 4 vertices was split into 3 triangles"
+        );
+    }
+
+    #[test]
+    fn file_order_is_kept_across_models() {
+        // Four unit squares at z = 0..3, spread over objects, groups and materials; the
+        // patch ids must follow the file, and the hexagon's fan takes consecutive ids.
+        let mut t = String::from("mtllib m.mtl\n");
+        for z in 0..4 {
+            t += &format!("v 0 0 {z}\nv 1 0 {z}\nv 1 1 {z}\nv 0 1 {z}\n");
+        }
+        t += "v 0 0 9\nv 2 0 9\nv 3 1 9\nv 2 2 9\nv 0 2 9\nv -1 1 9\n";
+        t += "o a\nusemtl red\nf 1 2 3 4\ng b\nusemtl grey\nf 5 6 7 8\n";
+        t += "usemtl red\nf 17 18 19 20 21 22\nl 1 2\no c\nf 9 10 11 12\nf 13 14 15 16\n";
+        let mtl = "newmtl red\nKd 0.8 0.1 0.1\nnewmtl grey\nKd 0.3\n";
+        let (_d, path) = write(&[("t.obj", &t), ("m.mtl", mtl)]);
+        let (s, r) = import(&path, &ImportOptions::default()).unwrap();
+        let z: Vec<f64> = s.patches.iter().map(|p| p.vertices[0].z).collect();
+        assert_eq!(z, vec![0., 1., 9., 9., 9., 9., 2., 3.]);
+        assert_eq!(
+            (r.faces, r.split_faces, r.patches, r.skipped_lines),
+            (5, 1, 8, 1)
+        );
+        assert_eq!(s.patches[1].reflectance, Spectrum::Rgb([0.3; 3]));
+        assert_eq!(s.patches[4].reflectance, Spectrum::Rgb([0.8, 0.1, 0.1]));
+        // `usemtl` holds across objects, as in OBJ.
+        assert_eq!(s.patches[6].reflectance, Spectrum::Rgb([0.8, 0.1, 0.1]));
+    }
+
+    #[test]
+    fn default_bounds_pad_a_flat_axis() {
+        let text = "v 0 0 0\nv 2 0 0\nv 2 1 0\nv 0 1 0\nf 1 2 3 4\n";
+        let (s, _) = import_str(text).unwrap();
+        assert_eq!(s.bounds.lo, v(0., 0., -0.02));
+        assert_eq!(s.bounds.hi, v(2., 1., 0.02));
+    }
+
+    #[test]
+    fn given_bounds_are_used_and_checked() {
+        let (_d, path) = write(&[("t.obj", &format!("{SQUARE}f 1 2 3 4\nf 1 2 3\n"))]);
+        let b = Aabb {
+            lo: DVec3::splat(-1.0),
+            hi: DVec3::splat(2.0),
+        };
+        let opts = ImportOptions {
+            bounds: Some(b),
+            ..Default::default()
+        };
+        assert_eq!(import(&path, &opts).unwrap().0.bounds, b);
+        let opts = ImportOptions {
+            bounds: Some(Aabb {
+                lo: DVec3::splat(-1.0),
+                hi: v(2.0, 0.5, 2.0),
+            }),
+            ..Default::default()
+        };
+        let e = import(&path, &opts).unwrap_err().to_string();
+        assert!(
+            e.contains("face 1 (line 5, patch 0)") && e.contains("outside the bounds"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn materials_give_reflectance_and_emission() {
+        let t = format!("mtllib m.mtl\n{SQUARE}usemtl lamp\nf 1 2 3 4\n");
+        let mtl = "newmtl lamp\nKd 0.25 0.5 0.75\nKe 10 9 8\n";
+        let (_d, path) = write(&[("t.obj", &t), ("m.mtl", mtl)]);
+        let (s, r) = import(&path, &ImportOptions::default()).unwrap();
+        assert_eq!(s.patches[0].reflectance, Spectrum::Rgb([0.25, 0.5, 0.75]));
+        assert_eq!(s.patches[0].emission, Spectrum::Rgb([10., 9., 8.]));
+        assert!(r.warnings.is_empty());
+    }
+
+    #[test]
+    fn a_missing_mtl_gives_defaults_and_a_warning() {
+        let t = format!("mtllib gone.mtl\n{SQUARE}usemtl lamp\nf 1 2 3 4\n");
+        let (_d, path) = write(&[("t.obj", &t)]);
+        let opts = ImportOptions {
+            reflectance: 0.7,
+            emission: 2.0,
+            ..Default::default()
+        };
+        let (s, r) = import(&path, &opts).unwrap();
+        assert_eq!(s.patches[0].reflectance, Spectrum::Grey(0.7));
+        assert_eq!(s.patches[0].emission, Spectrum::Grey(2.0));
+        assert!(r.warnings[0].contains("gone.mtl"), "{:?}", r.warnings);
+    }
+
+    #[test]
+    fn a_broken_mtl_is_an_error_not_a_panic() {
+        for mtl in [
+            "newmtl a\nKd 0.5 0.5\n",
+            "newmtl a\nKd\n",
+            "newmtl a\nKd x y z\n",
+        ] {
+            let t = format!("mtllib m.mtl\n{SQUARE}usemtl a\nf 1 2 3 4\n");
+            let (_d, path) = write(&[("t.obj", &t), ("m.mtl", mtl)]);
+            let e = import(&path, &ImportOptions::default())
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("m.mtl"), "{e}");
+        }
+        // Kd above 1 is caught by the patch check and names the face.
+        let t = format!("mtllib m.mtl\n{SQUARE}usemtl a\nf 1 2 3 4\n");
+        let (_d, path) = write(&[("t.obj", &t), ("m.mtl", "newmtl a\nKd 1.5\n")]);
+        let e = import(&path, &ImportOptions::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("face 1 (line 7, patch 0)") && e.contains("reflectance"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn bad_faces_name_face_line_and_patch() {
+        let good = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n";
+        let cases = [
+            ("f 1 2\n", "has 2 vertices"),
+            ("f 1\n", "has 1 vertex"),
+            ("f 1 2 3 5\n", "not planar"),
+            ("v 0.3 0.3 0\nf 1 2 9 4\n", "not convex"),
+            ("f 1 2 1\n", "coincide"),
+            ("v 2 0 0\nf 1 2 9\n", "zero area"),
+            ("v 0.5 0.2 0\nf 1 2 9 3 4\n", "not convex"),
+            ("v 2 2 5\nf 1 2 3 9 4\n", "not planar"),
+        ];
+        for (bad, what) in cases {
+            let e = err_str(&format!("{good}f 1 2 3\nf 1 3 4\n{bad}"));
+            let line = good.lines().count() + 2 + bad.lines().count();
+            let place = format!("face 3 (line {line}, patch");
+            assert!(e.contains(&place) && e.contains(what), "{bad:?}: {e}");
+            assert!(e.contains("t.obj"), "{e}");
+        }
+    }
+
+    #[test]
+    fn nan_and_infinite_vertices_are_errors() {
+        for bad in ["nan", "NaN", "inf", "1e999"] {
+            let e = err_str(&format!("v {bad} 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
+            assert!(
+                e.contains("face 1 (line 4, patch 0)") && e.contains("not a finite point"),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn tobj_errors_and_garbage_are_input_errors() {
+        for (text, what) in [
+            (format!("{SQUARE}f 1 2 7\n"), "out of bounds"),
+            (format!("{SQUARE}f 1 2 0\n"), "out of bounds"),
+            (format!("{SQUARE}f 1 2 -9\n"), "out of bounds"),
+            (format!("{SQUARE}f 1 2 x\n"), "face parse error"),
+            ("v 1 2\n".to_string(), "position parse error"),
+            (
+                "hello world\nthis is not an obj file\n".to_string(),
+                "no faces",
+            ),
+            (format!("{SQUARE}l 1 2 3 4\n"), "only line elements"),
+            (String::new(), "no faces"),
+        ] {
+            let e = import_str(&text).unwrap_err();
+            assert_eq!(e.exit_code(), 2, "{e}");
+            assert!(e.to_string().contains(what), "{text:?}: {e}");
+        }
+        let e = import(Path::new("/nonexistent/x.obj"), &ImportOptions::default()).unwrap_err();
+        assert_eq!(e.exit_code(), 1);
+    }
+
+    #[test]
+    fn texture_and_normal_indices_are_ignored() {
+        let t = format!("{SQUARE}vt 0 0\nvn 0 0 1\nf 1/1/1 2/0/5 3//-9 4/-5\n");
+        let (s, _) = import_str(&t).unwrap();
+        assert_eq!(s.patches.len(), 1);
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+        /// Any mix of OBJ-like statements gives a scene or an error, never a panic.
+        #[test]
+        fn never_panics(lines in proptest::collection::vec(
+            proptest::sample::select(vec![
+                "v 0 0 0", "v 1 0 0", "v 0 1 0", "v 1 1 0", "v nan 0 0", "v 1 2", "v 1 1 1 0",
+                "v 1 1 1 1 1 1", "vt 0 0", "vn 0 0 1", "f 1 2 3", "f 1 2 3 4", "f 1 2",
+                "f 1", "f", "f 1/1 2/2 3/3", "f -1 -2 -3", "f 0 1 2", "f 1 2 3 4 5 6",
+                "f 1//9 2//-99 3//0", "f 1/-5 2/-1 3/1", "vt 0 0 0 0", "l 1 2", "l 1 2 3", "p 1", "o", "g x", "usemtl",
+                "usemtl m", "mtllib", "mtllib nothere.mtl", "s 1", "# c", "garbage", "",
+                "f 1/2/3/4 1 2", "f 99999999999999999999 1 2",
+            ]),
+            0..24,
+        )) {
+            let _ = import_str(&lines.join("\n"));
+        }
+    }
 }

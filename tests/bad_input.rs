@@ -1,0 +1,325 @@
+//! Malformed scenes, JSON and OBJ, one test per kind: `shellsim scene info FILE` must exit
+//! with status 2 and say which file and which patch (or face, line) is wrong, without
+//! panicking; a valid scene must exit 0, so that these tests can fail both ways.
+
+use std::path::Path;
+use std::process::Command;
+
+/// Runs `shellsim scene info FILE`; returns the exit status, stdout and stderr.
+fn scene_info(file: &Path) -> (Option<i32>, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args(["scene", "info"])
+        .arg(file)
+        .output()
+        .expect("the shellsim binary runs");
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// Writes `files` (name, contents) into a fresh directory, runs `scene info` on `run` in
+/// it and checks the exit status and, for a failure, that stderr names `run` and holds
+/// every string of `want`; for success, that stdout holds them.
+fn check_files(files: &[(&str, &[u8])], run: &str, status: i32, want: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).unwrap();
+    }
+    let (code, stdout, stderr) = scene_info(&dir.path().join(run));
+    let shown = format!("status {code:?}\n--- stdout\n{stdout}--- stderr\n{stderr}");
+    assert_eq!(code, Some(status), "{shown}");
+    assert!(!stderr.contains("panicked"), "{shown}");
+    if status == 0 {
+        assert!(stderr.is_empty(), "{shown}");
+        for w in want {
+            assert!(stdout.contains(w), "stdout lacks {w:?}\n{shown}");
+        }
+    } else {
+        assert!(stdout.is_empty(), "{shown}");
+        assert!(stderr.starts_with("error: "), "{shown}");
+        assert!(stderr.contains(run), "stderr does not name {run}\n{shown}");
+        for w in want {
+            assert!(stderr.contains(w), "stderr lacks {w:?}\n{shown}");
+        }
+    }
+}
+
+/// [`check_files`] with one file.
+fn check(name: &str, text: impl AsRef<[u8]>, status: i32, want: &[&str]) {
+    check_files(&[(name, text.as_ref())], name, status, want);
+}
+
+/// A JSON scene with the given bounds: three good patches (0-2), then `extra` as patch 3
+/// on line 8 of the file, one patch a line.
+fn json_scene(bounds: &str, extra: Option<&str>) -> String {
+    let mut patches = vec![
+        r#"{"vertices": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], "emission": 1}"#,
+        r#"{"vertices": [[0, 0, 1], [0, 1, 1], [1, 1, 1], [1, 0, 1]], "reflectance": [0.2, 0.4, 0.6]}"#,
+        r#"{"vertices": [[0, 0, 0], [0, 0, 1], [1, 0, 1]]}"#,
+    ];
+    patches.extend(extra);
+    format!(
+        "{{\n  \"name\": \"t\",\n  \"bounds\": {bounds},\n  \"patches\": [\n    {}\n  ]\n}}\n",
+        patches.join(",\n    ")
+    )
+}
+
+const BOUNDS: &str = "[[-1, -1, -1], [2, 2, 2]]";
+
+/// [`json_scene`] with [`BOUNDS`] and `patch` as patch 3.
+fn json_with(patch: &str) -> String {
+    json_scene(BOUNDS, Some(patch))
+}
+
+/// A patch with the given vertices (JSON text of the list).
+fn json_patch(vertices: &str) -> String {
+    format!(r#"{{"vertices": {vertices}}}"#)
+}
+
+/// An OBJ scene: the 8 corners of the unit cube, three good faces (1-3, patches 0-2),
+/// then `extra` (more vertices from index 9, and face 4 = patch 3).
+fn obj_with(extra: &str) -> String {
+    let mut s = String::new();
+    for (x, y, z) in [
+        (0, 0, 0),
+        (1, 0, 0),
+        (1, 1, 0),
+        (0, 1, 0),
+        (0, 0, 1),
+        (1, 0, 1),
+        (1, 1, 1),
+        (0, 1, 1),
+    ] {
+        s.push_str(&format!("v {x} {y} {z}\n"));
+    }
+    s.push_str("f 1 2 3 4\nf 5 8 7 6\nf 1 5 6 2\n");
+    s.push_str(extra);
+    s
+}
+
+/// One `#[test]` per case: `name: file, contents => exit status, [strings stderr holds]`.
+macro_rules! cases {
+    ($($name:ident: $file:expr, $text:expr => $status:expr, [$($want:expr),* $(,)?];)*) => {
+        $(
+            #[test]
+            fn $name() {
+                check($file, $text, $status, &[$($want),*]);
+            }
+        )*
+    };
+}
+
+cases! {
+    // --- valid scenes: the tests must be able to fail the other way too.
+    json_valid_scene: "valid.json", json_scene(BOUNDS, None) => 0, ["patches   3"];
+    obj_valid_scene: "valid.obj",
+        obj_with("v 0 1.3 0.5\nv 0 -0.3 0.5\nf 1 4 9 8 5 10\nl 1 7\n") => 0, ["patches   7"];
+
+    // --- JSON: patch geometry.
+    json_non_planar_quad: "nonplanar.json",
+        json_with(&json_patch("[[0, 0, 0], [1, 0, 0], [1, 1, 0.5], [0, 1, 0]]"))
+        => 2, ["patch 3", "not planar"];
+    json_non_convex_quad: "nonconvex.json",
+        json_with(&json_patch("[[0, 0, 0], [1, 0, 0], [0.3, 0.3, 0], [0, 1, 0]]"))
+        => 2, ["patch 3", "not convex"];
+    json_bowtie_quad: "bowtie.json",
+        json_with(&json_patch("[[0, 0, 0], [1, 1, 0], [1, 0, 0], [0, 1, 0]]"))
+        => 2, ["patch 3"];
+    json_two_vertices: "two_vertices.json",
+        json_with(&json_patch("[[0, 0, 0], [1, 0, 0]]"))
+        => 2, ["patch 3", "has 2 vertices"];
+    json_no_vertices: "no_vertices.json",
+        json_with(&json_patch("[]")) => 2, ["patch 3", "has 0 vertices"];
+    json_five_vertices: "five_vertices.json",
+        json_with(&json_patch("[[0, 0, 0], [1, 0, 0], [1.5, 0.5, 0], [1, 1, 0], [0, 1, 0]]"))
+        => 2, ["patch 3", "has 5 vertices"];
+    json_zero_area_collinear: "collinear.json",
+        json_with(&json_patch("[[0, 0, 0], [0.5, 0, 0], [1, 0, 0]]"))
+        => 2, ["patch 3", "zero area"];
+    json_coincident_vertices: "coincident.json",
+        json_with(&json_patch("[[0, 0, 0], [1, 0, 0], [1, 0, 0], [0, 1, 0]]"))
+        => 2, ["patch 3", "coincide"];
+    json_vertex_outside_bounds: "outside.json",
+        json_with(&json_patch("[[0, 0, 0], [3, 0, 0], [0, 1, 0]]"))
+        => 2, ["patch 3", "vertex 1", "outside the bounds"];
+    json_vertex_not_a_point: "not_a_point.json",
+        json_with(&json_patch("[[0, 0], [1, 0, 0], [0, 1, 0]]")) => 2, ["patch 3"];
+
+    // --- JSON: numbers (JSON has no NaN or infinity; an out-of-range number is a parse error).
+    json_number_overflows: "overflow.json",
+        json_with(&json_patch("[[0, 0, 0], [1e999, 0, 0], [0, 1, 0]]"))
+        => 2, ["line 8 column", "out of range"];
+    json_nan_literal: "nan.json",
+        json_with(&json_patch("[[0, 0, 0], [NaN, 0, 0], [0, 1, 0]]"))
+        => 2, ["line 8 column"];
+    json_huge_number: "huge.json",
+        json_with(&json_patch("[[0, 0, 0], [1e300, 0, 0], [0, 1, 0]]"))
+        => 2, ["patch 3"]; // The message is "zero area (inf)": diameter² overflows in `check`.
+    json_infinite_bounds: "infinite_bounds.json",
+        json_scene("[[-1, -1, -1], [2, 1e999, 2]]", None) => 2, ["line 3 column"];
+
+    // --- JSON: materials.
+    json_negative_reflectance: "negative_reflectance.json",
+        json_with(r#"{"vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "reflectance": -0.1}"#)
+        => 2, ["patch 3", "reflectance"];
+    json_reflectance_above_one: "bright_reflectance.json",
+        json_with(r#"{"vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "reflectance": [0.5, 1.5, 0.5]}"#)
+        => 2, ["patch 3", "reflectance", "at most 1"];
+    json_negative_emission: "negative_emission.json",
+        json_with(r#"{"vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "emission": [1, -1, 1]}"#)
+        => 2, ["patch 3", "emission"];
+
+    // --- JSON: bounds.
+    json_bounds_lo_not_below_hi: "flat_bounds.json",
+        json_scene("[[-1, 0, -1], [2, 0, 2]]", None) => 2, ["bounds", "lo < hi"];
+    json_bounds_reversed: "reversed_bounds.json",
+        json_scene("[[2, 2, 2], [-1, -1, -1]]", None) => 2, ["bounds", "lo < hi"];
+
+    // --- JSON: schema.
+    json_unknown_patch_field: "colour.json",
+        json_with(r#"{"vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]], "colour": 0.5}"#)
+        => 2, ["patch 3", "unknown field `colour`"];
+    json_unknown_top_level_field: "top_colour.json",
+        json_scene(BOUNDS, None).replacen("{\n", "{\n  \"colour\": 1,\n", 1)
+        => 2, ["top level", "unknown field `colour`"];
+    json_missing_patch_field: "missing_vertices.json",
+        json_with(r#"{"reflectance": 0.5}"#) => 2, ["patch 3", "missing field `vertices`"];
+    json_missing_top_level_field: "missing_bounds.json",
+        json_scene(BOUNDS, None).replacen(&format!("  \"bounds\": {BOUNDS},\n"), "", 1)
+        => 2, ["top level", "missing field `bounds`"];
+    json_wrong_type: "wrong_type.json",
+        json_with(r#"{"vertices": "a triangle"}"#) => 2, ["patch 3", "invalid type"];
+    json_not_json: "not_json.json",
+        "this is not a scene\n" => 2, ["line 1 column", "not valid JSON"];
+    json_truncated: "truncated.json",
+        &json_scene(BOUNDS, None)[..60] => 2, ["not valid JSON"];
+    json_empty_file: "empty.json", "" => 2, ["not valid JSON"];
+    json_empty_patch_list: "no_patches.json",
+        "{\"name\": \"t\", \"bounds\": [[0, 0, 0], [1, 1, 1]], \"patches\": []}" => 2, ["no patches"];
+
+    // --- OBJ: face geometry. Face 4 is patch 3, on line 12, or 13 after one extra vertex.
+    obj_non_planar_quad: "nonplanar.obj",
+        obj_with("f 1 2 7 4\n") => 2, ["face 4 (line 12, patch 3)", "not planar"];
+    obj_non_convex_quad: "nonconvex.obj",
+        obj_with("v 0.3 0.3 0\nf 1 2 9 4\n") => 2, ["face 4 (line 13, patch 3)", "not convex"];
+    obj_non_convex_pentagon: "nonconvex5.obj",
+        obj_with("v 0.3 0.3 0\nf 1 2 9 3 4\n")
+        => 2, ["face 4 (line 13, patches 3 to 5)", "not convex"];
+    obj_zero_area_triangle: "collinear.obj",
+        obj_with("v 0.5 0 0\nf 1 9 2\n") => 2, ["face 4 (line 13, patch 3)", "zero area"];
+    obj_coincident_vertices: "coincident.obj",
+        obj_with("f 1 2 2 3\n") => 2, ["face 4 (line 12, patch 3)", "coincide"];
+    obj_nan_vertex: "nan.obj",
+        obj_with("v nan 0 0\nf 9 2 3\n") => 2, ["face 4 (line 13, patch 3)", "not a finite point"];
+    obj_infinite_vertex: "infinite.obj",
+        obj_with("v 1e999 0 0\nf 9 2 3\n") => 2, ["face 4 (line 13, patch 3)", "not a finite point"];
+
+    // --- OBJ: what tobj rejects or what is not a face.
+    obj_two_vertex_face: "two_vertices.obj",
+        obj_with("f 1 2\n") => 2, ["face 4 (line 12, patch 3)", "has 2 vertices"];
+    obj_one_vertex_face: "one_vertex.obj",
+        obj_with("f 1\n") => 2, ["face 4 (line 12, patch 3)", "has 1 vertex"];
+    obj_index_out_of_range: "index_range.obj",
+        obj_with("f 1 2 99\n") => 2, ["face vertex index out of bounds"];
+    obj_index_zero: "index_zero.obj",
+        obj_with("f 0 1 2\n") => 2, ["face vertex index out of bounds"];
+    obj_bad_index: "bad_index.obj",
+        obj_with("f 1 2 three\n") => 2, ["face parse error"];
+    obj_short_vertex: "short_vertex.obj",
+        obj_with("v 1 2\n") => 2, ["position parse error"];
+    obj_garbage_text: "garbage.obj",
+        "this is not an OBJ file\n{\"patches\": []}\n" => 2, ["no faces"];
+    obj_only_lines: "lines.obj",
+        "v 0 0 0\nv 1 0 0\nl 1 2\n" => 2, ["no faces"];
+    obj_not_utf8: "binary.obj",
+        b"v 0 0 0\n\xff\xfe\x00\x01\n" => 2, ["not UTF-8"];
+}
+
+// --- A file that does not exist: an I/O error (status 1, `Error::exit_code`), not bad input.
+
+#[test]
+fn json_missing_file() {
+    check_files(&[], "missing.json", 1, &["No such file"]);
+}
+
+#[test]
+fn obj_missing_file() {
+    check_files(&[], "missing.obj", 1, &["No such file"]);
+}
+
+// --- OBJ materials.
+
+const MTL_SCENE: &str = "mtllib m.mtl\nusemtl a\n";
+
+#[test]
+fn obj_valid_materials() {
+    let obj = format!("{MTL_SCENE}{}", obj_with(""));
+    let mtl = b"newmtl a\nKd 0.5\nKe 1 1 1\n";
+    check_files(
+        &[("lit.obj", obj.as_bytes()), ("m.mtl", mtl)],
+        "lit.obj",
+        0,
+        &["patches   3"],
+    );
+}
+
+#[test]
+fn obj_reflectance_above_one() {
+    let obj = format!("{MTL_SCENE}{}", obj_with(""));
+    let mtl = b"newmtl a\nKd 0.5 1.5 0.5\n";
+    check_files(
+        &[("bright.obj", obj.as_bytes()), ("m.mtl", mtl)],
+        "bright.obj",
+        2,
+        &["face 1 (line 11, patch 0)", "reflectance"],
+    );
+}
+
+#[test]
+fn obj_malformed_mtl() {
+    // tobj 4.0.5 panics on a colour of 2 numbers; the import must report it instead.
+    let obj = format!("{MTL_SCENE}{}", obj_with(""));
+    let mtl = b"newmtl a\nKd 0.5 0.5\n";
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("m.mtl"), mtl).unwrap();
+    std::fs::write(dir.path().join("badmtl.obj"), obj).unwrap();
+    let (code, stdout, stderr) = scene_info(&dir.path().join("badmtl.obj"));
+    assert_eq!(code, Some(2), "{stdout}{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains("m.mtl") && stderr.contains("line 2"),
+        "{stderr}"
+    );
+}
+
+// --- OBJ vertices outside given bounds: the CLI has no bounds option, so through the library.
+
+#[test]
+fn obj_vertex_outside_given_bounds() {
+    use shellsim::obj::{import, ImportOptions};
+    use shellsim::Aabb;
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("outside.obj");
+    std::fs::write(&path, obj_with("v 3 3 0\nf 1 2 9\n")).unwrap();
+    let opts = ImportOptions {
+        bounds: Some(Aabb {
+            lo: glam::DVec3::splat(-1.0),
+            hi: glam::DVec3::splat(2.0),
+        }),
+        ..Default::default()
+    };
+    let e = import(&path, &opts).unwrap_err();
+    let msg = e.to_string();
+    assert_eq!(e.exit_code(), 2, "{msg}");
+    assert!(msg.contains("outside.obj"), "{msg}");
+    assert!(
+        msg.contains("face 4 (line 13, patch 3)") && msg.contains("outside the bounds"),
+        "{msg}"
+    );
+    // The same file without given bounds is fine: they are its bounding box.
+    let (scene, report) = import(&path, &ImportOptions::default()).unwrap();
+    assert_eq!((scene.patches.len(), report.faces), (4, 4));
+    assert_eq!(scene.bounds.hi, glam::DVec3::new(3.0, 3.0, 1.0));
+}
