@@ -43,6 +43,11 @@ impl Error {
         }
     }
 
+    /// An input file that cannot be read: bad input (exit status 2), like a malformed one.
+    pub fn unreadable(file: &Path, source: std::io::Error) -> Self {
+        Error::input(file, "file", format!("cannot read it: {source}"))
+    }
+
     /// The process exit status for this error: 2 for bad input or usage, 1 otherwise.
     pub fn exit_code(&self) -> i32 {
         match self {

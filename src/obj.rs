@@ -196,7 +196,7 @@ fn prepare_mtl(text: &str) -> std::result::Result<String, String> {
 
 /// Reads an OBJ file into a validated scene.
 pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    let bytes = std::fs::read(path).map_err(|e| Error::unreadable(path, e))?;
     let text = String::from_utf8(bytes).map_err(|e| {
         Error::input(
             path,

@@ -13,6 +13,10 @@ pub const MAX_PATCHES: usize = 1 << 24;
 /// fraction of the patch's diameter (rounding in generated scenes is ~1e-16).
 pub const PLANARITY_TOL: f64 = 1e-9;
 
+/// Largest coordinate magnitude a scene may use: beyond it, areas and plane equations
+/// overflow or lose all precision.
+pub const MAX_COORD: f64 = 1e12;
+
 /// A grey value or an RGB triple; grey `g` means `[g, g, g]`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(untagged)]
@@ -156,6 +160,12 @@ impl Patch {
                     p.x, p.y, p.z
                 ));
             }
+            if p.abs().max_element() > MAX_COORD {
+                return Err(format!(
+                    "vertex {k} [{}, {}, {}] is out of range (coordinates at most {MAX_COORD:e} in magnitude)",
+                    p.x, p.y, p.z
+                ));
+            }
         }
         for (what, s) in [
             ("emission", self.emission),
@@ -222,12 +232,13 @@ impl Scene {
     /// Checks the bounds and every patch; the error names `file` and the patch.
     pub fn validate(&self, file: &Path) -> Result<()> {
         let b = self.bounds;
-        if !b.lo.is_finite() || !b.hi.is_finite() || !b.lo.cmplt(b.hi).all() {
+        let huge = b.lo.abs().max_element().max(b.hi.abs().max_element()) > MAX_COORD;
+        if !b.lo.is_finite() || !b.hi.is_finite() || !b.lo.cmplt(b.hi).all() || huge {
             return Err(Error::input(
                 file,
                 "bounds",
                 format!(
-                    "bounds {:?} - {:?} must be finite with lo < hi on every axis",
+                    "bounds {:?} - {:?} must be finite, at most {MAX_COORD:e} in magnitude, with lo < hi on every axis",
                     b.lo.to_array(),
                     b.hi.to_array()
                 ),
@@ -285,7 +296,7 @@ impl Scene {
 
     /// Reads and validates a JSON scene.
     pub fn load_json(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let text = std::fs::read_to_string(path).map_err(|e| Error::unreadable(path, e))?;
         Scene::from_json_str(&text, path)
     }
 

@@ -156,7 +156,7 @@ cases! {
         => 2, ["line 8 column"];
     json_huge_number: "huge.json",
         json_with(&json_patch("[[0, 0, 0], [1e300, 0, 0], [0, 1, 0]]"))
-        => 2, ["patch 3"]; // The message is "zero area (inf)": diameter² overflows in `check`.
+        => 2, ["patch 3", "out of range"];
     json_infinite_bounds: "infinite_bounds.json",
         json_scene("[[-1, -1, -1], [2, 1e999, 2]]", None) => 2, ["line 3 column"];
 
@@ -237,16 +237,16 @@ cases! {
         b"v 0 0 0\n\xff\xfe\x00\x01\n" => 2, ["not UTF-8"];
 }
 
-// --- A file that does not exist: an I/O error (status 1, `Error::exit_code`), not bad input.
+// --- A file that does not exist or cannot be read: bad input (status 2).
 
 #[test]
 fn json_missing_file() {
-    check_files(&[], "missing.json", 1, &["No such file"]);
+    check_files(&[], "missing.json", 2, &["cannot read", "No such file"]);
 }
 
 #[test]
 fn obj_missing_file() {
-    check_files(&[], "missing.obj", 1, &["No such file"]);
+    check_files(&[], "missing.obj", 2, &["cannot read", "No such file"]);
 }
 
 // --- OBJ materials.
