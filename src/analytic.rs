@@ -646,6 +646,29 @@ mod tests {
     }
 
     #[test]
+    fn receiver_plane_crossing_source_far_from_receiver() {
+        // A wall hanging at y = 0.4, z ∈ [1, 2], over the unit floor: its plane cuts the floor,
+        // where the integrand has a kink (front seen on one side, back on the other). Each
+        // side is a difference of two C-14 pairs.
+        let wall = vec![
+            v(0., 0.4, 1.),
+            v(0., 0.4, 2.),
+            v(1., 0.4, 2.),
+            v(1., 0.4, 1.),
+        ];
+        let side = |w: f64| {
+            w * (perpendicular_rectangles(1., w, 2.) - perpendicular_rectangles(1., w, 1.))
+        };
+        let exact = side(0.4) + side(0.6);
+        close(
+            polygon_to_polygon(&floor(1., 1.), &wall),
+            exact,
+            1e-12,
+            "hanging wall",
+        );
+    }
+
+    #[test]
     fn clipping_straddling_polygon_equals_its_front_part() {
         // Tangent plane z = 0 at the origin; a square in the plane x = 1 reaching below it,
         // and its part above, clipped by hand.
