@@ -13,10 +13,16 @@ fn rays_from_50_sources(scene: &Scene) -> Vec<(Ray, u32)> {
         .step_by(scene.patches.len() / 50)
         .take(50)
         .flat_map(|src| {
-            hemisphere_rays(&scene.patches[src], PAPER_RAYS, Directions::Rings, Origins::Patch, 1)
-                .rays
-                .into_iter()
-                .map(move |r| (r, src as u32))
+            hemisphere_rays(
+                &scene.patches[src],
+                PAPER_RAYS,
+                Directions::Rings,
+                Origins::Patch,
+                1,
+            )
+            .rays
+            .into_iter()
+            .map(move |r| (r, src as u32))
         })
         .collect()
 }

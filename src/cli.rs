@@ -32,6 +32,33 @@ pub enum Command {
 
 #[derive(Subcommand, Debug)]
 pub enum SceneCmd {
+    /// Generate a built-in scene (deterministic for a seed) and write it as JSON.
+    Gen {
+        /// Which scene.
+        #[arg(value_enum)]
+        kind: crate::gen::Kind,
+        /// Seed of the random parts.
+        #[arg(long, default_value_t = crate::gen::DEFAULT_SEED)]
+        seed: u64,
+        /// Output file (JSON).
+        #[arg(short, long)]
+        out: PathBuf,
+    },
+    /// Convert a Wavefront OBJ file into a validated JSON scene (faces with more than 4
+    /// vertices become triangle fans).
+    Import {
+        /// The OBJ file.
+        file: PathBuf,
+        /// Output file (JSON).
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Scene bounds as lo_x,lo_y,lo_z,hi_x,hi_y,hi_z (default: the vertices' bounding box).
+        #[arg(long, value_parser = parse_bounds)]
+        bounds: Option<crate::scene::Aabb>,
+        /// Reflectance of faces without a material.
+        #[arg(long, default_value_t = 0.5)]
+        reflectance: f64,
+    },
     /// Validate a scene (JSON or OBJ) and print its statistics.
     Info {
         /// The scene file (.json or .obj).
@@ -72,6 +99,38 @@ pub struct ReferenceArgs {
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Some(Command::Scene(SceneCmd::Info { file, cell })) => scene_info(&file, cell),
+        Some(Command::Scene(SceneCmd::Gen { kind, seed, out })) => {
+            let scene = crate::gen::generate(kind, seed);
+            scene.validate(&out)?;
+            scene.save_json(&out)?;
+            println!(
+                "{}: {} patches (seed {seed}) written to {}",
+                kind.name(),
+                scene.patches.len(),
+                out.display()
+            );
+            Ok(())
+        }
+        Some(Command::Scene(SceneCmd::Import {
+            file,
+            out,
+            bounds,
+            reflectance,
+        })) => {
+            let opts = crate::obj::ImportOptions {
+                bounds,
+                reflectance,
+                ..Default::default()
+            };
+            let (scene, report) = crate::obj::import(&file, &opts)?;
+            for w in &report.warnings {
+                eprintln!("warning: {w}");
+            }
+            scene.save_json(&out)?;
+            println!("{}: {}", file.display(), report.summary());
+            println!("written to {}", out.display());
+            Ok(())
+        }
         Some(Command::Reference(a)) => {
             let scene = Scene::load(&a.scene)?;
             let report = reference_job(&scene, &a)?;
@@ -84,6 +143,21 @@ pub fn run(cli: Cli) -> Result<()> {
         }
         None => Ok(()),
     }
+}
+
+/// Parses `lo_x,lo_y,lo_z,hi_x,hi_y,hi_z`.
+fn parse_bounds(s: &str) -> std::result::Result<crate::scene::Aabb, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<std::result::Result<_, _>>()?;
+    if v.len() != 6 {
+        return Err(format!("expected 6 numbers, got {}", v.len()));
+    }
+    Ok(crate::scene::Aabb {
+        lo: glam::DVec3::new(v[0], v[1], v[2]),
+        hi: glam::DVec3::new(v[3], v[4], v[5]),
+    })
 }
 
 /// Checks a source id and a ray count against the scene.
@@ -152,8 +226,16 @@ fn scene_info(file: &Path, cell: f64) -> Result<()> {
     let scene = Scene::load(file)?;
     let tracer = Tracer::new(&scene, cell)?;
     let g = &tracer.grid;
-    let tris = scene.patches.iter().filter(|p| p.vertices.len() == 3).count();
-    let emitters = scene.patches.iter().filter(|p| p.emission.is_nonzero()).count();
+    let tris = scene
+        .patches
+        .iter()
+        .filter(|p| p.vertices.len() == 3)
+        .count();
+    let emitters = scene
+        .patches
+        .iter()
+        .filter(|p| p.emission.is_nonzero())
+        .count();
     println!("scene        {}", scene.name);
     println!(
         "bounds       {:?} - {:?}",

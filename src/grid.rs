@@ -221,8 +221,7 @@ impl Grid {
             for j in r0[1]..=r1[1] {
                 for i in r0[0]..=r1[0] {
                     let c = [i, j, k];
-                    if polygon_touches_box(&p.vertices, normal, &self.cell_box(c), self.cell_size)
-                    {
+                    if polygon_touches_box(&p.vertices, normal, &self.cell_box(c), self.cell_size) {
                         f(self.index(c));
                     }
                 }
@@ -348,7 +347,10 @@ mod tests {
         assert!(cells.contains(&g.index([0, 0, 0])));
         assert!(cells.contains(&g.index([1, 0, 0])));
         assert!(cells.contains(&g.index([0, 1, 0])));
-        assert!(cells.contains(&g.index([1, 1, 0])), "touches the corner (0.05,0.05)");
+        assert!(
+            cells.contains(&g.index([1, 1, 0])),
+            "touches the corner (0.05,0.05)"
+        );
         // (0.1, 0) is a vertex: it touches cell (2,0) at its corner.
         assert!(cells.contains(&g.index([2, 0, 0])));
     }

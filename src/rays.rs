@@ -298,7 +298,9 @@ mod tests {
         let l = rings_local(PAPER_RAYS);
         let s: f64 = l.iter().map(|x| x.1).sum();
         assert!((s - 1.0).abs() < 1e-12, "{s}");
-        assert!(l.iter().all(|(d, _)| (d.length() - 1.0).abs() < 1e-12 && d.z > 0.0));
+        assert!(l
+            .iter()
+            .all(|(d, _)| (d.length() - 1.0).abs() < 1e-12 && d.z > 0.0));
     }
 
     #[test]
@@ -317,7 +319,9 @@ mod tests {
         for n in [1, 5, 17, 100, 101] {
             let p = stratified_square(n, &mut rng);
             assert_eq!(p.len(), n);
-            assert!(p.iter().all(|&(u, v)| (0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v)));
+            assert!(p
+                .iter()
+                .all(|&(u, v)| (0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v)));
         }
     }
 
@@ -341,12 +345,16 @@ mod tests {
             for i in 0..4 {
                 let a = v[i];
                 let b = v[(i + 1) % 4];
-                assert!((b - a).cross(*x - a).z > 0.0, "{x:?} on or outside edge {i}");
+                assert!(
+                    (b - a).cross(*x - a).z > 0.0,
+                    "{x:?} on or outside edge {i}"
+                );
             }
         }
         // Area-uniform: the mean is the area centroid, not the vertex average.
         let mean = o.iter().copied().sum::<DVec3>() / o.len() as f64;
-        let tri_c = |a: DVec3, b: DVec3, c: DVec3| ((a + b + c) / 3.0, 0.5 * (b - a).cross(c - a).z);
+        let tri_c =
+            |a: DVec3, b: DVec3, c: DVec3| ((a + b + c) / 3.0, 0.5 * (b - a).cross(c - a).z);
         let (c1, a1) = tri_c(v[0], v[1], v[2]);
         let (c2, a2) = tri_c(v[0], v[2], v[3]);
         let ac = (c1 * a1 + c2 * a2) / (a1 + a2);

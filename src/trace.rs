@@ -75,7 +75,10 @@ impl PreparedRay {
     #[inline]
     fn project(&self, v: DVec3) -> (f64, f64) {
         let p = v - self.o;
-        (p[self.kx] - self.sx * p[self.kz], p[self.ky] - self.sy * p[self.kz])
+        (
+            p[self.kx] - self.sx * p[self.kz],
+            p[self.ky] - self.sy * p[self.kz],
+        )
     }
 }
 
@@ -156,8 +159,8 @@ impl PatchGeom {
     pub fn inside(&self, r: &PreparedRay) -> bool {
         let n = self.n_verts as usize;
         let mut p = [(0.0, 0.0); 4];
-        for k in 0..n {
-            p[k] = r.project(self.v[k]);
+        for (q, v) in p.iter_mut().zip(&self.v[..n]) {
+            *q = r.project(*v);
         }
         // Edge functions: e_k > 0 when the ray lies left of edge k → k+1.
         let mut e = [0.0f64; 4];
@@ -297,7 +300,11 @@ impl Tracer {
     /// next cell), or the ray leaves the grid. Zero direction components never step (their
     /// t_max is +inf); ties between axes step the lowest axis first; at most
     /// `nx + ny + nz` steps, so it always ends.
-    fn walk<const COUNT: bool>(&self, ray: &Ray, exclude: Option<u32>) -> (Option<Hit>, TraceCounts) {
+    fn walk<const COUNT: bool>(
+        &self,
+        ray: &Ray,
+        exclude: Option<u32>,
+    ) -> (Option<Hit>, TraceCounts) {
         let g = &self.grid;
         let mut counts = TraceCounts::default();
         let r = PreparedRay::new(ray);
@@ -406,8 +413,18 @@ mod tests {
                 hi: DVec3::ONE,
             },
             patches: vec![
-                quad([[0.1, 0.1, 0.5], [0.5, 0.1, 0.5], [0.5, 0.9, 0.5], [0.1, 0.9, 0.5]]),
-                quad([[0.5, 0.1, 0.5], [0.9, 0.1, 0.5], [0.9, 0.9, 0.5], [0.5, 0.9, 0.5]]),
+                quad([
+                    [0.1, 0.1, 0.5],
+                    [0.5, 0.1, 0.5],
+                    [0.5, 0.9, 0.5],
+                    [0.1, 0.9, 0.5],
+                ]),
+                quad([
+                    [0.5, 0.1, 0.5],
+                    [0.9, 0.1, 0.5],
+                    [0.9, 0.9, 0.5],
+                    [0.5, 0.9, 0.5],
+                ]),
             ],
         }
     }

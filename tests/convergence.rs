@@ -96,12 +96,24 @@ fn unweighted_rings_are_biased_weighted_are_not() {
     // (DESIGN.md); with projected-solid-angle weights they give the right 0.239.
     let cube = common::unit_cube();
     let tr = Tracer::new(&cube, 0.05).unwrap();
-    let set = hemisphere_rays(&cube.patches[0], 969, Directions::Rings, Origins::Point(FLOOR_CENTRE), 1);
+    let set = hemisphere_rays(
+        &cube.patches[0],
+        969,
+        Directions::Rings,
+        Origins::Point(FLOOR_CENTRE),
+        1,
+    );
     let hits: Vec<_> = set.rays.iter().map(|r| tr.trace(r, Some(0))).collect();
-    let ceiling = hits.iter().filter(|h| h.map(|h| h.patch) == Some(1)).count();
+    let ceiling = hits
+        .iter()
+        .filter(|h| h.map(|h| h.patch) == Some(1))
+        .count();
     let unweighted = ceiling as f64 / 969.0;
     assert!((unweighted - 0.131).abs() < 0.01, "{unweighted}");
     let (ff, _, _) = form_factors(&hits, &set.weights, 6);
     let weighted = ff.iter().find(|f| f.patch == 1).unwrap().value;
-    assert!((weighted - 0.2394564705).abs() < 3.0 * stratified_point(969), "{weighted}");
+    assert!(
+        (weighted - 0.2394564705).abs() < 3.0 * stratified_point(969),
+        "{weighted}"
+    );
 }

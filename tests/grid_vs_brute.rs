@@ -20,7 +20,11 @@ fn ray(i: usize, n_patches: usize, scene: &shellsim::Scene) -> (Ray, Option<u32>
     let ext = scene.bounds.extent();
     let mut o = lo + DVec3::new(rng.gen(), rng.gen(), rng.gen()) * ext;
     let mut d = loop {
-        let v = DVec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+        let v = DVec3::new(
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+        );
         if v.length_squared() > 1e-6 && v.length_squared() <= 1.0 {
             break v;
         }
@@ -63,7 +67,13 @@ fn ray(i: usize, n_patches: usize, scene: &shellsim::Scene) -> (Ray, Option<u32>
             let p = &scene.patches[id];
             let w: Vec<f64> = p.vertices.iter().map(|_| rng.gen::<f64>() + 1e-3).collect();
             let sw: f64 = w.iter().sum();
-            o = p.vertices.iter().zip(&w).map(|(v, w)| *v * *w).sum::<DVec3>() / sw;
+            o = p
+                .vertices
+                .iter()
+                .zip(&w)
+                .map(|(v, w)| *v * *w)
+                .sum::<DVec3>()
+                / sw;
             if d.dot(p.normal()) < 0.0 {
                 d = -d;
             }

@@ -31,7 +31,8 @@ pub fn load(name: &str) -> Scene {
 
 /// The unit cube's six walls facing inward: 0 floor (z=0), 1 ceiling, 2 x=0, 3 x=1, 4 y=0, 5 y=1.
 pub fn unit_cube() -> Scene {
-    let q = |v: [[f64; 3]; 4]| Patch::new(v.iter().map(|a| DVec3::from_array(*a)).collect(), 0.0, 0.5);
+    let q =
+        |v: [[f64; 3]; 4]| Patch::new(v.iter().map(|a| DVec3::from_array(*a)).collect(), 0.0, 0.5);
     Scene {
         name: "cube".into(),
         bounds: Aabb {
