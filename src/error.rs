@@ -16,6 +16,9 @@ pub enum Error {
     /// A bad command-line value (not tied to a file).
     #[error("{0}")]
     Usage(String),
+    /// A self-check of a run found a disagreement (a model bug, not bad input).
+    #[error("check failed: {0}")]
+    Check(String),
     /// Reading or writing a file failed.
     #[error("{}: {source}", file.display())]
     Io {
@@ -52,7 +55,7 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::Input { .. } | Error::Usage(_) => 2,
-            Error::Io { .. } => 1,
+            Error::Io { .. } | Error::Check(_) => 1,
         }
     }
 }

@@ -1,7 +1,7 @@
 //! Form factors from the float reference converge to the analytic values (Howell C-11, C-14,
 //! Lambert's contour formula) within 3× the expected estimator error, N = 10³ … 10⁶.
 //!
-//! Expected errors (measured over 40 seeds with `cargo run --release --example esterr`, see
+//! Expected errors (measured over 40 seeds with `cargo run --release --example estimator_error`, see
 //! BENCHMARKS.md): random cosine rays are binomial, σ = √(F(1−F)/N). From a point, Malley's
 //! stratified set and the equal-angle rings do far better: σ ≈ 0.7·N^(−3/4) bounds both
 //! (fitted constants 0.36–0.67). From an area, origins and directions are stratified apart
