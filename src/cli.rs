@@ -291,7 +291,9 @@ fn default_job() -> Result<()> {
     println!("The cycle-level machine, its check against the fixed-point model and its VCD come");
     println!("with the later issues (see `issues`); this run covers the float reference.");
     if report.escaped != 0 || mismatches != 0 || (f - truth).abs() > 3.0 * sigma {
-        return Err(Error::Check("the default run disagrees with its references".into()));
+        return Err(Error::Check(
+            "the default run disagrees with its references".into(),
+        ));
     }
     Ok(())
 }

@@ -728,8 +728,10 @@ mod tests {
             assert_eq!(e.exit_code(), 2, "{e}");
             assert!(e.to_string().contains(what), "{text:?}: {e}");
         }
+        // An unreadable file is bad input too.
         let e = import(Path::new("/nonexistent/x.obj"), &ImportOptions::default()).unwrap_err();
-        assert_eq!(e.exit_code(), 1);
+        assert_eq!(e.exit_code(), 2);
+        assert!(e.to_string().contains("cannot read"), "{e}");
     }
 
     #[test]

@@ -294,60 +294,24 @@ impl Tracer {
         self.walk::<true>(ray, exclude)
     }
 
-    /// 3D-DDA: steps cell by cell in order of increasing t; tests each cell's patches. It stops
-    /// once the next cell starts beyond the best hit (plus a slack of 1e-9 of the grid's
-    /// diagonal, so a hit computed a hair beyond its cell can never hide a nearer one in the
-    /// next cell), or the ray leaves the grid. Zero direction components never step (their
-    /// t_max is +inf); ties between axes step the lowest axis first; at most
-    /// `nx + ny + nz` steps, so it always ends.
+    /// Nearest hit by 3D-DDA: tests each cell's patches in order of increasing t and stops
+    /// once the next cell starts beyond the best hit plus a slack of 1e-9 of the grid's
+    /// diagonal — so a hit computed a hair beyond its cell can never hide a nearer one in
+    /// the next cell — or when the ray leaves the grid.
     fn walk<const COUNT: bool>(
         &self,
         ray: &Ray,
         exclude: Option<u32>,
     ) -> (Option<Hit>, TraceCounts) {
-        let g = &self.grid;
         let mut counts = TraceCounts::default();
-        let r = PreparedRay::new(ray);
-        let inv = DVec3::ONE / ray.d;
-        // Clip the ray to the grid box (slab test; a zero component gives ±inf or NaN,
-        // which the comparisons below treat as "no constraint" unless outside the slab).
-        let bx = g.aabb();
-        let mut t0 = 0.0f64;
-        let mut t1 = f64::INFINITY;
-        for a in 0..3 {
-            if ray.d[a] == 0.0 {
-                if ray.o[a] < bx.lo[a] || ray.o[a] > bx.hi[a] {
-                    return (None, counts);
-                }
-                continue;
-            }
-            let ta = (bx.lo[a] - ray.o[a]) * inv[a];
-            let tb = (bx.hi[a] - ray.o[a]) * inv[a];
-            t0 = t0.max(ta.min(tb));
-            t1 = t1.min(ta.max(tb));
-        }
-        if t0 > t1 {
+        let Some(mut dda) = Dda::new(&self.grid, ray) else {
             return (None, counts);
-        }
-        let start = if t0 > 0.0 { ray.o + ray.d * t0 } else { ray.o };
-        let mut c = [0usize; 3];
-        let mut step = [0isize; 3];
-        let mut t_max = [f64::INFINITY; 3];
-        for a in 0..3 {
-            c[a] = g.coord(a, start[a]);
-            if ray.d[a] > 0.0 {
-                step[a] = 1;
-                t_max[a] = (g.boundaries[a][c[a] + 1] - ray.o[a]) * inv[a];
-            } else if ray.d[a] < 0.0 {
-                step[a] = -1;
-                t_max[a] = (g.boundaries[a][c[a]] - ray.o[a]) * inv[a];
-            }
-        }
+        };
+        let r = PreparedRay::new(ray);
         let slack_t = self.slack_len / ray.d.length();
         let mut best: Option<Hit> = None;
         loop {
-            let cell = g.index(c);
-            let list = g.patches_in(cell);
+            let list = self.grid.patches_in(dda.cell());
             if COUNT {
                 counts.cells += 1;
                 counts.nonempty_cells += (!list.is_empty()) as u32;
@@ -363,36 +327,161 @@ impl Tracer {
                     best = Some(h);
                 }
             }
-            // Next axis to step: the smallest t_max, ties to the lowest axis.
-            let mut a = 0;
-            if t_max[1] < t_max[a] {
-                a = 1;
-            }
-            if t_max[2] < t_max[a] {
-                a = 2;
-            }
-            let t_next = t_max[a];
             if let Some(b) = best {
-                if t_next > b.t + slack_t {
+                if dda.t_exit() > b.t + slack_t {
                     break;
                 }
             }
-            if t_next > t1 || t_next == f64::INFINITY {
+            if !dda.step() {
                 break;
             }
-            let n = g.dims[a] as isize;
-            let ni = c[a] as isize + step[a];
-            if ni < 0 || ni >= n {
-                break;
-            }
-            c[a] = ni as usize;
-            t_max[a] = if step[a] > 0 {
-                (g.boundaries[a][c[a] + 1] - ray.o[a]) * inv[a]
-            } else {
-                (g.boundaries[a][c[a]] - ray.o[a]) * inv[a]
-            };
         }
         (best, counts)
+    }
+
+    /// Calls `f(cell, t_enter, t_exit)` for every cell the ray passes through, in order,
+    /// until the cell that contains `t_limit` (inclusive) or the grid's end. The same
+    /// stepping as [`Tracer::trace`].
+    pub fn cells_along(&self, ray: &Ray, t_limit: f64, mut f: impl FnMut(usize, f64, f64)) {
+        let Some(mut dda) = Dda::new(&self.grid, ray) else {
+            return;
+        };
+        loop {
+            f(dda.cell(), dda.t_enter(), dda.t_exit());
+            if dda.t_exit() >= t_limit || !dda.step() {
+                break;
+            }
+        }
+    }
+}
+
+/// The 3D-DDA stepper (Amanatides & Woo) over a [`Grid`]: the current cell and the t at
+/// which the ray leaves it. Zero direction components never step (their t_max is +inf);
+/// ties between axes step the lowest axis first; every step moves one cell along one axis,
+/// so a walk takes at most `nx + ny + nz` steps and always ends. Boundary crossings are
+/// computed from the boundary table, not accumulated, so no error builds up.
+#[derive(Clone, Debug)]
+pub struct Dda<'g> {
+    grid: &'g Grid,
+    o: DVec3,
+    inv: DVec3,
+    c: [usize; 3],
+    step: [isize; 3],
+    t_max: [f64; 3],
+    t_enter: f64,
+    /// Where the ray leaves the grid's box.
+    t_end: f64,
+}
+
+impl<'g> Dda<'g> {
+    /// Starts the walk where the ray (t >= 0) enters the grid; `None` if it misses the grid.
+    #[inline]
+    pub fn new(grid: &'g Grid, ray: &Ray) -> Option<Self> {
+        let inv = DVec3::ONE / ray.d;
+        // Clip the ray to the grid box (slab test; a zero component only checks the slab).
+        let bx = grid.aabb();
+        let mut t0 = 0.0f64;
+        let mut t1 = f64::INFINITY;
+        for a in 0..3 {
+            if ray.d[a] == 0.0 {
+                if ray.o[a] < bx.lo[a] || ray.o[a] > bx.hi[a] {
+                    return None;
+                }
+                continue;
+            }
+            let ta = (bx.lo[a] - ray.o[a]) * inv[a];
+            let tb = (bx.hi[a] - ray.o[a]) * inv[a];
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        if t0 > t1 || t0.is_nan() || t1.is_nan() {
+            return None;
+        }
+        let start = if t0 > 0.0 { ray.o + ray.d * t0 } else { ray.o };
+        let mut c = [0usize; 3];
+        let mut step = [0isize; 3];
+        let mut t_max = [f64::INFINITY; 3];
+        for a in 0..3 {
+            c[a] = grid.coord(a, start[a]);
+            if ray.d[a] > 0.0 {
+                step[a] = 1;
+                t_max[a] = (grid.boundaries[a][c[a] + 1] - ray.o[a]) * inv[a];
+            } else if ray.d[a] < 0.0 {
+                step[a] = -1;
+                t_max[a] = (grid.boundaries[a][c[a]] - ray.o[a]) * inv[a];
+            }
+        }
+        Some(Dda {
+            grid,
+            o: ray.o,
+            inv,
+            c,
+            step,
+            t_max,
+            t_enter: t0,
+            t_end: t1,
+        })
+    }
+
+    /// The current cell's linear index.
+    #[inline]
+    pub fn cell(&self) -> usize {
+        self.grid.index(self.c)
+    }
+
+    /// The current cell's coordinates.
+    #[inline]
+    pub fn coords(&self) -> [usize; 3] {
+        self.c
+    }
+
+    /// The t at which the ray entered the current cell.
+    #[inline]
+    pub fn t_enter(&self) -> f64 {
+        self.t_enter
+    }
+
+    /// The t at which the ray leaves the current cell (at most the grid's exit).
+    #[inline]
+    pub fn t_exit(&self) -> f64 {
+        let t = self.t_max[self.next_axis()];
+        t.min(self.t_end)
+    }
+
+    /// The axis of the next step: the smallest t_max, ties to the lowest axis.
+    #[inline]
+    fn next_axis(&self) -> usize {
+        let mut a = 0;
+        if self.t_max[1] < self.t_max[a] {
+            a = 1;
+        }
+        if self.t_max[2] < self.t_max[a] {
+            a = 2;
+        }
+        a
+    }
+
+    /// Steps into the next cell; false when the ray leaves the grid.
+    #[inline]
+    pub fn step(&mut self) -> bool {
+        let a = self.next_axis();
+        let t_next = self.t_max[a];
+        if t_next > self.t_end || t_next == f64::INFINITY {
+            return false;
+        }
+        let ni = self.c[a] as isize + self.step[a];
+        if ni < 0 || ni >= self.grid.dims[a] as isize {
+            return false;
+        }
+        let b = &self.grid.boundaries[a];
+        self.c[a] = ni as usize;
+        self.t_enter = t_next;
+        self.t_max[a] = if self.step[a] > 0 {
+            (b[self.c[a] + 1] - self.o[a]) * self.inv[a]
+        } else {
+            (b[self.c[a]] - self.o[a]) * self.inv[a]
+        };
+        true
     }
 }
 
