@@ -28,6 +28,9 @@ pub enum Command {
     Scene(SceneCmd),
     /// Form factors from one source patch by the float reference tracer.
     Reference(ReferenceArgs),
+    /// The shelling partition: low-resolution pass, sections and sectors, shells and
+    /// subshells, workloads predicted against actual, patch loads, schedule.
+    Partition(crate::partition::PartitionArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -141,6 +144,7 @@ pub fn run(cli: Cli) -> Result<()> {
             }
             Ok(())
         }
+        Some(Command::Partition(a)) => crate::partition::cli::run(&a),
         None => default_job(),
     }
 }

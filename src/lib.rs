@@ -7,6 +7,7 @@ pub mod error;
 pub mod gen;
 pub mod grid;
 pub mod obj;
+pub mod partition;
 pub mod progress;
 pub mod rays;
 pub mod reference;
