@@ -148,7 +148,8 @@ impl AngleBox {
 
     /// θ range in degrees (the exclusive end 90° + 1 unit reported as 90).
     pub fn theta_deg(&self) -> [f64; 2] {
-        self.theta.map(|v| v.min(90 * NANO_PER_DEG) as f64 / NANO_PER_DEG as f64)
+        self.theta
+            .map(|v| v.min(90 * NANO_PER_DEG) as f64 / NANO_PER_DEG as f64)
     }
 
     /// φ range in degrees.
@@ -177,7 +178,10 @@ impl SubregionGrid {
 
     /// The grid of `n_theta × n_phi` subregions; both at least 1 and at most one per degree.
     pub fn new(n_theta: usize, n_phi: usize) -> SubregionGrid {
-        assert!((1..=Self::MAX_THETA).contains(&n_theta), "n_theta {n_theta}");
+        assert!(
+            (1..=Self::MAX_THETA).contains(&n_theta),
+            "n_theta {n_theta}"
+        );
         assert!((1..=Self::MAX_PHI).contains(&n_phi), "n_phi {n_phi}");
         let bounds = |n: usize, span: u64, end: u64| -> Vec<u64> {
             (0..=n)
@@ -274,7 +278,13 @@ mod tests {
         assert_eq!(a.theta, 45 * NANO_PER_DEG);
         assert!(a.phi < PHI_END);
         let g = Angles::of(&f, DVec3::new(0.0, -1.0, 0.0));
-        assert_eq!(g, Angles { theta: 90 * NANO_PER_DEG, phi: 270 * NANO_PER_DEG });
+        assert_eq!(
+            g,
+            Angles {
+                theta: 90 * NANO_PER_DEG,
+                phi: 270 * NANO_PER_DEG
+            }
+        );
         assert!(AngleBox::HEMISPHERE.contains(g));
     }
 
@@ -294,7 +304,10 @@ mod tests {
         assert_eq!(k_of_theta.len(), 20, "20 distinct θ values");
         for (theta, its) in k_of_theta {
             let expect = (theta / (18 * NANO_PER_DEG)) as usize;
-            assert!(its.iter().all(|&i| i == expect.min(4)), "θ {theta}: {its:?}");
+            assert!(
+                its.iter().all(|&i| i == expect.min(4)),
+                "θ {theta}: {its:?}"
+            );
         }
     }
 

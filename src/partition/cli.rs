@@ -140,7 +140,11 @@ pub fn panel(p: &Partition, label: &str) -> Panel {
     Panel {
         title: format!("{label} · imbalance {:.2}", p.imbalance()),
         actual: work.iter().map(|w| w.intersections).collect(),
-        predicted: p.predicted_sections.iter().map(|w| w.intersections).collect(),
+        predicted: p
+            .predicted_sections
+            .iter()
+            .map(|w| w.intersections)
+            .collect(),
     }
 }
 
@@ -178,7 +182,14 @@ pub fn figures(dir: &Path) -> Result<()> {
             let panels: Vec<Panel> = FIGURE_SECTIONS
                 .iter()
                 .map(|&sections| {
-                    let p = run_kind(kind, &scene, &tracer, sections, ratio, Granularity::Subregion);
+                    let p = run_kind(
+                        kind,
+                        &scene,
+                        &tracer,
+                        sections,
+                        ratio,
+                        Granularity::Subregion,
+                    );
                     panel(&p, &format!("P = {sections}"))
                 })
                 .collect();

@@ -33,7 +33,7 @@ pub mod split;
 use crate::error::{Error, Result};
 use crate::rays::{hemisphere_rays, Directions, Frame, Origins, RaySet, PAPER_RAYS};
 use crate::scene::Scene;
-use crate::trace::Tracer;
+use crate::trace::{Hit, Tracer};
 use angles::{AngleBox, Angles, Axis, SubregionGrid};
 use lowres::{LowRes, Workload};
 use rayon::prelude::*;
@@ -132,7 +132,10 @@ impl Config {
             ));
         }
         if !(1..=MAX_CTUS).contains(&self.ctus) {
-            return usage(format!("--ctus {} is out of range (1..={MAX_CTUS})", self.ctus));
+            return usage(format!(
+                "--ctus {} is out of range (1..={MAX_CTUS})",
+                self.ctus
+            ));
         }
         if !(1..=MAX_PASS_RAYS).contains(&self.rays_low) {
             return usage(format!(
@@ -147,7 +150,9 @@ impl Config {
             ));
         }
         let (a, b) = self.subregions;
-        if !(1..=SubregionGrid::MAX_THETA).contains(&a) || !(1..=SubregionGrid::MAX_PHI).contains(&b) {
+        if !(1..=SubregionGrid::MAX_THETA).contains(&a)
+            || !(1..=SubregionGrid::MAX_PHI).contains(&b)
+        {
             return usage(format!(
                 "--subregions {a}x{b} is out of range (θ 1..={}, φ 1..={})",
                 SubregionGrid::MAX_THETA,
@@ -337,9 +342,16 @@ pub struct Partition {
     pub patch_loads_baseline: u64,
     /// Rays whose shelling nearest hit differs from the float tracer's (must be 0).
     pub nearest_hit_mismatches: u64,
+    /// Per high-resolution ray: the float tracer's nearest hit (source excluded).
+    pub reference: Vec<Option<Hit>>,
 }
 
 impl Partition {
+    /// The float tracer's nearest hit of high-resolution ray `r`.
+    pub fn reference_hit(&self, r: usize) -> Option<Hit> {
+        self.reference[r]
+    }
+
     /// Actual work per section.
     pub fn section_work(&self) -> Vec<Workload> {
         let mut v = vec![Workload::default(); self.plan.sections.len()];
@@ -384,7 +396,13 @@ pub fn partition(scene: &Scene, tracer: &Tracer, cfg: &Config) -> Partition {
     let centre = src.centroid();
     let params = cfg.shell_params();
     // Low resolution.
-    let low_set = hemisphere_rays(src, cfg.rays_low, Directions::Rings, Origins::Patch, cfg.seed);
+    let low_set = hemisphere_rays(
+        src,
+        cfg.rays_low,
+        Directions::Rings,
+        Origins::Patch,
+        cfg.seed,
+    );
     let low_caster = Caster::new(tracer, &low_set.rays, cfg.source, centre, params);
     let grid = SubregionGrid::new(cfg.subregions.0, cfg.subregions.1);
     let low = lowres::low_res(&low_caster, &frame, grid);
@@ -429,7 +447,10 @@ pub fn partition(scene: &Scene, tracer: &Tracer, cfg: &Config) -> Partition {
         sector_of.push(k as u32);
         members[k].push(r as u32);
     }
-    let runs: Vec<BundleRun> = members.par_iter().map(|ids| caster.run_bundle(ids)).collect();
+    let runs: Vec<BundleRun> = members
+        .par_iter()
+        .map(|ids| caster.run_bundle(ids))
+        .collect();
     let sectors: Vec<SectorRun> = flat
         .into_iter()
         .zip(members)
@@ -450,12 +471,11 @@ pub fn partition(scene: &Scene, tracer: &Tracer, cfg: &Config) -> Partition {
             shelled[r as usize] = s.run.hits[j];
         }
     }
-    let (baseline, mismatches) = high_rays
+    let per_ray: Vec<(Option<Hit>, u64)> = high_rays
         .rays
         .par_iter()
-        .zip(&shelled)
         .with_min_len(256)
-        .map(|(ray, got)| {
+        .map(|ray| {
             let hit = tracer.trace(ray, Some(cfg.source));
             let mut seen: Vec<u32> = Vec::new();
             tracer.cells_along(ray, hit.map_or(f64::INFINITY, |h| h.t), |c, _, _| {
@@ -469,9 +489,16 @@ pub fn partition(scene: &Scene, tracer: &Tracer, cfg: &Config) -> Partition {
             });
             seen.sort_unstable();
             seen.dedup();
-            (seen.len() as u64, u64::from(hit != *got))
+            (hit, seen.len() as u64)
         })
-        .reduce(|| (0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        .collect();
+    let baseline = per_ray.iter().map(|x| x.1).sum();
+    let reference: Vec<Option<Hit>> = per_ray.into_iter().map(|x| x.0).collect();
+    let mismatches = reference
+        .iter()
+        .zip(&shelled)
+        .filter(|(a, b)| a != b)
+        .count() as u64;
     Partition {
         config: cfg.clone(),
         scene: scene.name.clone(),
@@ -485,5 +512,6 @@ pub fn partition(scene: &Scene, tracer: &Tracer, cfg: &Config) -> Partition {
         predicted_sections,
         patch_loads_baseline: baseline,
         nearest_hit_mismatches: mismatches,
+        reference,
     }
 }

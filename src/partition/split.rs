@@ -87,8 +87,14 @@ fn rec(bx: AngleBox, items: Vec<Item>, parts: usize, axis: Axis, pos: Positions,
             axis.other()
         };
         let [lo, hi] = bx.range(a);
-        assert!(hi - lo >= 2, "a box of one nanodegree square cannot be cut: {bx:?}");
-        (a, proportional(lo, hi, parts, left_parts).clamp(lo + 1, hi - 1))
+        assert!(
+            hi - lo >= 2,
+            "a box of one nanodegree square cannot be cut: {bx:?}"
+        );
+        (
+            a,
+            proportional(lo, hi, parts, left_parts).clamp(lo + 1, hi - 1),
+        )
     });
     let (lb, rb) = bx.split(a, at);
     let (li, ri): (Vec<Item>, Vec<Item>) = items.into_iter().partition(|i| i.at.get(a) < at);
@@ -174,7 +180,13 @@ mod tests {
     fn weights(s: &Splits, items: &[Item]) -> Vec<u64> {
         s.boxes
             .iter()
-            .map(|b| items.iter().filter(|i| b.contains(i.at)).map(|i| i.weight).sum())
+            .map(|b| {
+                items
+                    .iter()
+                    .filter(|i| b.contains(i.at))
+                    .map(|i| i.weight)
+                    .sum()
+            })
             .collect()
     }
 
