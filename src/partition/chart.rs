@@ -40,13 +40,13 @@ fn si(v: f64) -> String {
 /// A figure of `panels` side by side under `caption`, as SVG text.
 pub fn workload_svg(caption: &str, panels: &[Panel]) -> Result<String, String> {
     let n = panels.len().max(1);
-    let (w, h) = (420 * n as u32, 400u32);
+    let (w, h) = ((440 * n as u32).max(680), 420u32);
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| e.to_string())?;
         let body = root
-            .titled(caption, ("sans-serif", 20))
+            .titled(caption, ("sans-serif", 17))
             .map_err(|e| e.to_string())?;
         let areas = body.split_evenly((1, n));
         for (area, p) in areas.iter().zip(panels) {
@@ -70,7 +70,8 @@ fn draw_panel<DB: DrawingBackend>(
         .max()
         .unwrap_or(0)
         .max(1) as f64
-        * 1.12;
+        // Headroom for the legend above the tallest bar.
+        * 1.32;
     let mut chart = ChartBuilder::on(area)
         .caption(&p.title, ("sans-serif", 16))
         .margin(10)
@@ -80,6 +81,9 @@ fn draw_panel<DB: DrawingBackend>(
     chart
         .configure_mesh()
         .disable_x_mesh()
+        .bold_line_style(BLACK.mix(0.12))
+        .light_line_style(TRANSPARENT)
+        .y_labels(6)
         .x_labels(n.min(16))
         .x_label_formatter(&|x| {
             let r = x.round();

@@ -253,13 +253,15 @@ pub fn plan(low: &LowRes, g: Granularity, sections: usize, ctus: usize) -> Plan 
     };
     let by_isect = items(low, g, |w| w.intersections);
     let by_trav = items(low, g, |w| w.traversals);
-    let top = split::split(AngleBox::HEMISPHERE, &by_isect, sections, pos);
+    let top = split::split(AngleBox::HEMISPHERE, &by_isect, sections, Axis::Theta, pos);
     let mut forced = top.forced;
     let sections = top
         .boxes
         .into_iter()
-        .map(|bounds| {
-            let s = split::split(bounds, &by_trav, ctus, pos);
+        .zip(top.next_axis)
+        .map(|(bounds, next)| {
+            // One BSP tree: sectors carry on the sections' alternation of angles.
+            let s = split::split(bounds, &by_trav, ctus, next, pos);
             forced += s.forced;
             SectionPlan {
                 bounds,

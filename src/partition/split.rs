@@ -4,7 +4,8 @@
 //! To cut a box into `P` parts, the splitter cuts it into `⌈P/2⌉` and `⌊P/2⌋` parts at the
 //! position whose weight on the left is closest to `W·⌈P/2⌉/P` (the matching weighted
 //! quantile, so P need not be a power of two), then recurses into both halves along the
-//! other angle. Positions come from the granularity: only subregion boundaries
+//! other angle (and a tree cut further — sectors inside a section — carries on with the
+//! angle after its last cut, [`Splits::next_axis`]). Positions come from the granularity: only subregion boundaries
 //! ([`Positions::Boundaries`]) or between any two consecutive distinct item angles
 //! ([`Positions::BetweenItems`], the low-resolution rays).
 //!
@@ -43,13 +44,23 @@ pub enum Positions<'a> {
 pub struct Splits {
     /// The parts, depth-first, lower angle first.
     pub boxes: Vec<AngleBox>,
+    /// Per part: the angle its next cut would use (the alternation continued), so that
+    /// sectors cut inside a section carry on the section tree's alternation.
+    pub next_axis: Vec<Axis>,
     /// Cuts made at a box's proportional point because no allowed position lay inside it.
     pub forced: usize,
 }
 
 /// Cuts `root` into `parts` boxes balancing the weight of `items` (items outside `root`
-/// are ignored). `parts` must be at least 1.
-pub fn split(root: AngleBox, items: &[Item], parts: usize, positions: Positions) -> Splits {
+/// are ignored), the first cut along `first` (θ at the root of the hemisphere). `parts`
+/// must be at least 1.
+pub fn split(
+    root: AngleBox,
+    items: &[Item],
+    parts: usize,
+    first: Axis,
+    positions: Positions,
+) -> Splits {
     assert!(parts >= 1, "at least one part");
     let inside: Vec<Item> = items
         .iter()
@@ -58,9 +69,10 @@ pub fn split(root: AngleBox, items: &[Item], parts: usize, positions: Positions)
         .collect();
     let mut out = Splits {
         boxes: Vec::with_capacity(parts),
+        next_axis: Vec::with_capacity(parts),
         forced: 0,
     };
-    rec(root, inside, parts, Axis::Theta, positions, &mut out);
+    rec(root, inside, parts, first, positions, &mut out);
     debug_assert_eq!(out.boxes.len(), parts);
     out
 }
@@ -68,6 +80,7 @@ pub fn split(root: AngleBox, items: &[Item], parts: usize, positions: Positions)
 fn rec(bx: AngleBox, items: Vec<Item>, parts: usize, axis: Axis, pos: Positions, out: &mut Splits) {
     if parts == 1 {
         out.boxes.push(bx);
+        out.next_axis.push(axis);
         return;
     }
     let left_parts = parts.div_ceil(2);
@@ -207,7 +220,13 @@ mod tests {
             .flat_map(|t| (0..10).map(move |p| item(5 + 15 * t, 18 + 36 * p, 1)))
             .collect();
         for parts in [1, 2, 3, 5, 6, 7, 12] {
-            let s = split(AngleBox::HEMISPHERE, &items, parts, Positions::BetweenItems);
+            let s = split(
+                AngleBox::HEMISPHERE,
+                &items,
+                parts,
+                Axis::Theta,
+                Positions::BetweenItems,
+            );
             assert_eq!(s.boxes.len(), parts);
             assert_eq!(s.forced, 0);
             assert_tiles(&s, AngleBox::HEMISPHERE);
@@ -222,12 +241,29 @@ mod tests {
     #[test]
     fn three_parts_split_two_to_one() {
         let items = [item(10, 0, 1), item(30, 0, 1), item(50, 0, 1)];
-        let s = split(AngleBox::HEMISPHERE, &items, 3, Positions::BetweenItems);
+        let s = split(
+            AngleBox::HEMISPHERE,
+            &items,
+            3,
+            Axis::Theta,
+            Positions::BetweenItems,
+        );
         assert_eq!(weights(&s, &items), vec![1, 1, 1]);
         // θ first: the first cut is between 30° and 50°, the left half then cut on φ fails
         // (one φ value) and falls back to θ.
         assert_eq!(s.boxes[2].theta, [40 * DEG, THETA_END]);
         assert_eq!(s.forced, 0);
+        // The alternation carries on: the right part was made by a θ cut, the left two by
+        // a θ cut (the φ fallback) too.
+        assert_eq!(s.next_axis, vec![Axis::Phi, Axis::Phi, Axis::Phi]);
+        let two = split(
+            AngleBox::HEMISPHERE,
+            &items,
+            2,
+            Axis::Phi,
+            Positions::BetweenItems,
+        );
+        assert_eq!(two.next_axis, vec![Axis::Phi; 2], "no φ position: cut on θ");
     }
 
     #[test]
@@ -247,8 +283,8 @@ mod tests {
                 weight: 0,
             })
             .collect();
-        let a = split(AngleBox::HEMISPHERE, &[], 4, pos);
-        let b = split(AngleBox::HEMISPHERE, &zeros, 4, pos);
+        let a = split(AngleBox::HEMISPHERE, &[], 4, Axis::Theta, pos);
+        let b = split(AngleBox::HEMISPHERE, &zeros, 4, Axis::Theta, pos);
         assert_eq!(a, b);
         assert_eq!(a.forced, 0);
         assert_tiles(&a, AngleBox::HEMISPHERE);
@@ -257,7 +293,13 @@ mod tests {
         assert_eq!(a.boxes[0].theta, [0, 36 * DEG]);
         assert_eq!(a.boxes[0].phi, [0, 144 * DEG]);
         // Between-items with no items: every cut forced, still a tiling.
-        let c = split(AngleBox::HEMISPHERE, &[], 5, Positions::BetweenItems);
+        let c = split(
+            AngleBox::HEMISPHERE,
+            &[],
+            5,
+            Axis::Theta,
+            Positions::BetweenItems,
+        );
         assert_eq!(c.forced, 4);
         assert_tiles(&c, AngleBox::HEMISPHERE);
         // θ at 3/5 of 90°, φ at 2/3 of 360°, θ at half of 54°.
@@ -273,7 +315,7 @@ mod tests {
             phi: g.inner_bounds(Axis::Phi),
         };
         let items = [item(0, 0, 5), item(0, 180, 5)];
-        let s = split(AngleBox::HEMISPHERE, &items, 4, pos);
+        let s = split(AngleBox::HEMISPHERE, &items, 4, Axis::Theta, pos);
         assert_eq!(s.boxes.len(), 4);
         assert_eq!(s.forced, 2);
         assert_tiles(&s, AngleBox::HEMISPHERE);
@@ -290,23 +332,47 @@ mod tests {
             item(40, 0, 0),
             item(80, 0, 1),
         ];
-        let s = split(AngleBox::HEMISPHERE, &items, 2, Positions::BetweenItems);
+        let s = split(
+            AngleBox::HEMISPHERE,
+            &items,
+            2,
+            Axis::Theta,
+            Positions::BetweenItems,
+        );
         // Candidates 15, 25, 35, 60: all leave weight 1 on the left; 45° is nearest to 35.
         assert_eq!(s.boxes[0].theta, [0, 35 * DEG]);
         // Exactly tied distances: 40° and 50° around the proportional 45°: the lower wins.
         let items = [item(35, 0, 1), item(45, 0, 0), item(55, 0, 1)];
-        let s = split(AngleBox::HEMISPHERE, &items, 2, Positions::BetweenItems);
+        let s = split(
+            AngleBox::HEMISPHERE,
+            &items,
+            2,
+            Axis::Theta,
+            Positions::BetweenItems,
+        );
         assert_eq!(s.boxes[0].theta, [0, 40 * DEG]);
     }
 
     #[test]
     fn a_heavy_item_is_never_divided() {
         let items = [item(10, 0, 100), item(50, 0, 1), item(60, 0, 1)];
-        let s = split(AngleBox::HEMISPHERE, &items, 2, Positions::BetweenItems);
+        let s = split(
+            AngleBox::HEMISPHERE,
+            &items,
+            2,
+            Axis::Theta,
+            Positions::BetweenItems,
+        );
         assert_eq!(weights(&s, &items), vec![100, 2]);
         // Three parts: the heavy item is closest to 2/3 of the weight, so its side gets two
         // parts; one direction cannot be cut, so one of them is a forced, empty part.
-        let s = split(AngleBox::HEMISPHERE, &items, 3, Positions::BetweenItems);
+        let s = split(
+            AngleBox::HEMISPHERE,
+            &items,
+            3,
+            Axis::Theta,
+            Positions::BetweenItems,
+        );
         assert_eq!(weights(&s, &items), vec![100, 0, 2]);
         assert_eq!(s.forced, 1);
     }
@@ -318,7 +384,7 @@ mod tests {
             phi: [0, PHI_END],
         };
         let items = [item(10, 0, 1), item(20, 0, 1), item(60, 0, 1000)];
-        let s = split(root, &items, 2, Positions::BetweenItems);
+        let s = split(root, &items, 2, Axis::Theta, Positions::BetweenItems);
         assert_eq!(weights(&s, &items), vec![1, 1]);
         assert_tiles(&s, root);
     }
