@@ -220,9 +220,10 @@ pub fn imbalance_table() -> Result<String> {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "Static imbalance (max over mean of actual intersections per section) of every committed\n\
-         scene from its natural source, {FIGURE_CTUS} CTUs per cluster, Hi_Low_Ratio {TABLE_RATIO} \
-         (9,690 high-resolution rays), paper parameters otherwise. Written by \
+        "Static imbalance (max over mean of actual intersections per section) of every\n\
+         committed scene from its natural source: {FIGURE_CTUS} CTUs per cluster, Hi_Low_Ratio\n\
+         {TABLE_RATIO} (9,690 high-resolution rays), the paper's parameters otherwise. The last\n\
+         column is shelling's patch loads over the ray-by-ray baseline's. Written by\n\
          `shellsim partition --figures docs/figures`.\n"
     );
     let _ = writeln!(
