@@ -34,10 +34,11 @@ impl Default for Tolerances {
 }
 
 /// Mismatch counts per class (each mismatch in the first class that explains it, checked
-/// in the order overflow, grazing, near an edge, tie).
+/// in the order overflow, near the origin, grazing, near an edge, tie).
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
 pub struct Classes {
     pub overflow: u64,
+    pub near_origin: u64,
     pub grazing: u64,
     pub near_edge: u64,
     pub tie: u64,
@@ -97,6 +98,7 @@ struct Outcome {
 #[derive(Clone, Copy)]
 enum Class {
     Overflow,
+    NearOrigin,
     Tie,
     NearEdge,
     Grazing,
@@ -162,6 +164,7 @@ pub fn check(
             mismatches += 1;
             match c {
                 Some(Class::Overflow) => classes.overflow += 1,
+                Some(Class::NearOrigin) => classes.near_origin += 1,
                 Some(Class::Tie) => classes.tie += 1,
                 Some(Class::NearEdge) => classes.near_edge += 1,
                 Some(Class::Grazing) => classes.grazing += 1,
@@ -259,6 +262,15 @@ fn classify(
             host.t_f64(b.t)
         };
         involved.push((b.patch, t));
+    }
+    // A hit within a few LSBs of the origin: the quantized origin may lie on the other
+    // side of that surface (rays leaving a patch where it meets another).
+    let len = ray.d.length();
+    if involved
+        .iter()
+        .any(|&(_, t)| t * len <= tol.edge_lsb * lsb_c)
+    {
+        return Some(Class::NearOrigin);
     }
     for &(id, _) in &involved {
         if tracer.patches[id as usize].normal.dot(dn).abs() < tol.grazing_cos {

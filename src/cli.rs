@@ -30,6 +30,9 @@ pub enum Command {
     Reference(ReferenceArgs),
     /// The float reference against the untimed fixed-point model on the same rays.
     Check(CheckArgs),
+    /// Sweep a model parameter and chart accuracy against cost.
+    #[command(subcommand)]
+    Sweep(SweepCmd),
 }
 
 #[derive(Subcommand, Debug)]
@@ -97,6 +100,39 @@ pub struct ReferenceArgs {
     pub json: Option<PathBuf>,
 }
 
+#[derive(Subcommand, Debug)]
+pub enum SweepCmd {
+    /// Mismatch rate and form-factor error against fractional bits (CSV + SVG).
+    Bits {
+        /// The scene file (.json or .obj).
+        #[arg(long)]
+        scene: PathBuf,
+        /// The source patch id.
+        #[arg(long, default_value_t = 0)]
+        source: u32,
+        /// Number of rays (default: the paper's 969 × its largest Hi_Low_Ratio, 30).
+        #[arg(long, default_value_t = 29070)]
+        rays: usize,
+        /// Direction set.
+        #[arg(long, value_enum, default_value_t = Directions::Malley)]
+        directions: Directions,
+        /// Seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Fewest fractional bits.
+        #[arg(long, default_value_t = 8)]
+        from: u32,
+        /// Most fractional bits.
+        #[arg(long, default_value_t = 30)]
+        to: u32,
+        /// Output directory: bits-<scene>.csv and bits-<scene>.svg.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[command(flatten)]
+        datapath: DatapathArgs,
+    },
+}
+
 /// Arguments of `shellsim check`.
 #[derive(clap::Args, Debug)]
 pub struct CheckArgs {
@@ -121,8 +157,7 @@ pub struct DatapathArgs {
     pub frac_bits: Option<u32>,
 }
 
-/// The built-in paper configuration.
-pub const PAPER_TOML: &str = include_str!("../hw/configs/paper.toml");
+use shellsim_hw::config::PAPER_TOML;
 
 impl DatapathArgs {
     /// The resolved datapath configuration.
@@ -240,6 +275,73 @@ pub fn run(cli: Cli) -> Result<()> {
                     report.unexplained_mismatches
                 )));
             }
+            Ok(())
+        }
+        Some(Command::Sweep(SweepCmd::Bits {
+            scene: file,
+            source,
+            rays,
+            directions,
+            seed,
+            from,
+            to,
+            out,
+            datapath,
+        })) => {
+            let scene = Scene::load(&file)?;
+            check_source_and_rays(&scene, &file, source, rays)?;
+            if from > to {
+                return Err(Error::Usage(format!("--from {from} is above --to {to}")));
+            }
+            let base = datapath.resolve()?;
+            let tracer = Tracer::new(&scene, DEFAULT_CELL)?;
+            let set = hemisphere_rays(
+                &scene.patches[source as usize],
+                rays,
+                directions,
+                Origins::Patch,
+                seed,
+            );
+            let rows = crate::sweep::sweep_bits(
+                &scene,
+                &file,
+                &tracer,
+                base,
+                DEFAULT_CELL,
+                &set,
+                source,
+                from..=to,
+            )?;
+            println!(
+                "{:>4} {:>10} {:>12} {:>12} {:>11} {:>8}",
+                "F", "mismatches", "ff_err_max", "sampling", "mult bits", "unexpl."
+            );
+            for r in &rows {
+                println!(
+                    "{:>4} {:>10} {:>12.3e} {:>12.3e} {:>11} {:>8}",
+                    r.frac_bits,
+                    r.report.mismatches,
+                    r.report.ff_err_max,
+                    r.report.ff_sampling_err,
+                    r.cost.multiplier_bits,
+                    r.report.unexplained_mismatches
+                );
+            }
+            match crate::sweep::recommended(&rows) {
+                Some(b) => println!(
+                    "fewest bits whose form-factor error stays under the sampling error: {b}"
+                ),
+                None => println!(
+                    "no width in the sweep keeps the form-factor error under the sampling error"
+                ),
+            }
+            let stem = format!("bits-{}", scene.name);
+            let title = format!(
+                "{}: fixed point vs float, {} {:?} rays from patch {}",
+                scene.name, rays, directions, source
+            );
+            crate::sweep::write(&out, &stem, &rows, &title)?;
+            println!("wrote {}/{stem}.csv and .svg", out.display());
             Ok(())
         }
         None => default_job(),
@@ -437,8 +539,8 @@ fn analytic_check() -> (f64, f64, f64) {
 fn print_check(r: &crate::check::CheckReport) {
     println!("{}: {} rays, {} mismatches", r.format, r.rays, r.mismatches);
     println!(
-        "  explained: {} overflow, {} grazing, {} near an edge or vertex, {} tie in t; unexplained: {}",
-        r.classes.overflow, r.classes.grazing, r.classes.near_edge, r.classes.tie, r.unexplained_mismatches
+        "  explained: {} overflow, {} near the origin, {} grazing, {} near an edge or vertex, {} tie in t; unexplained: {}",
+        r.classes.overflow, r.classes.near_origin, r.classes.grazing, r.classes.near_edge, r.classes.tie, r.unexplained_mismatches
     );
     println!(
         "  t error: max {:.2} LSB, rms {:.2} LSB; form factors: max error {:.2e} (sampling error {:.2e})",

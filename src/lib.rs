@@ -13,6 +13,7 @@ pub mod progress;
 pub mod rays;
 pub mod reference;
 pub mod scene;
+pub mod sweep;
 pub mod trace;
 
 pub use error::{Error, Result};

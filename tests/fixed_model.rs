@@ -64,7 +64,12 @@ fn cornell_every_source() {
 
 #[test]
 fn stress_scenes() {
-    for f in ["stress-edges.json", "stress-grazing.json", "stress-skewed.json", "stress-dense.json"] {
+    for f in [
+        "stress-edges.json",
+        "stress-grazing.json",
+        "stress-skewed.json",
+        "stress-dense.json",
+    ] {
         let n = common::load(f).patches.len();
         no_unexplained(f, vec![0, n / 3, n / 2, n - 1]);
     }
@@ -80,7 +85,11 @@ fn brute_equals_grid(file: &str, rays: usize) {
         .filter_map(|i| {
             let mut rng = Pcg64::seed_from_u64(i as u64);
             let mut o = DVec3::new(rng.gen(), rng.gen(), rng.gen());
-            let mut d = DVec3::new(rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0));
+            let mut d = DVec3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            );
             if i % 4 == 0 {
                 o[rng.gen_range(0..3)] = rng.gen_range(0..=20) as f64 / 20.0;
             }
@@ -94,13 +103,22 @@ fn brute_equals_grid(file: &str, rays: usize) {
             (b != g).then(|| format!("ray {i} {o:?} {d:?}: brute {b:?} grid {g:?}"))
         })
         .collect();
-    assert!(bad.is_empty(), "{file}: {} differ: {:?}", bad.len(), &bad[..bad.len().min(3)]);
+    assert!(
+        bad.is_empty(),
+        "{file}: {} differ: {:?}",
+        bad.len(),
+        &bad[..bad.len().min(3)]
+    );
 }
 
 #[test]
 fn brute_equals_grid_in_every_committed_scene() {
     for f in common::COMMITTED {
-        let rays = if f == "stress-dense.json" { 5_000 } else { 100_000 };
+        let rays = if f == "stress-dense.json" {
+            5_000
+        } else {
+            100_000
+        };
         brute_equals_grid(f, rays);
     }
 }
@@ -122,7 +140,10 @@ fn stress_edges_no_leaks_no_double_hits() {
         let n = p.n_verts as usize;
         for k in 0..n {
             let (a, b) = (p.v[k], p.v[(k + 1) % n]);
-            edges.entry(if a < b { (a, b) } else { (b, a) }).or_default().push(i as u32);
+            edges
+                .entry(if a < b { (a, b) } else { (b, a) })
+                .or_default()
+                .push(i as u32);
         }
     }
     let shared: Vec<(([i64; 3], [i64; 3]), Vec<u32>)> =
@@ -134,14 +155,26 @@ fn stress_edges_no_leaks_no_double_hits() {
     for ((a, b), ids) in &shared {
         // The midpoint (exact when the sum is even) and both endpoints' neighbourhood.
         let mid = [0, 1, 2].map(|k| (a[k] + b[k]) / 2);
-        for d in [[0, 0, -one], [one / 4, one / 8, -one], [-one / 3, one / 5, -one]] {
+        for d in [
+            [0, 0, -one],
+            [one / 4, one / 8, -one],
+            [-one / 3, one / 5, -one],
+        ] {
             // Start a whole number of steps up the ray so the ray passes exactly through mid.
             let o = [0, 1, 2].map(|k| mid[k] - d[k] / 8);
             let r = shellsim_hw::RayRecord::new(0, o, d, &f);
             let mut e = Exceptions::default();
             let hits = ids
                 .iter()
-                .filter(|&&id| shellsim_hw::datapath::intersect(&r, &host.scene.patches[id as usize], &f, &mut e).is_some())
+                .filter(|&&id| {
+                    shellsim_hw::datapath::intersect(
+                        &r,
+                        &host.scene.patches[id as usize],
+                        &f,
+                        &mut e,
+                    )
+                    .is_some()
+                })
                 .count();
             // A fold seen edge-on (silhouette) may rightly give 0 or 2: only count crossings.
             let facing: Vec<i128> = ids
@@ -150,7 +183,11 @@ fn stress_edges_no_leaks_no_double_hits() {
                     let p = &host.scene.patches[id as usize];
                     let e1 = [0, 1, 2].map(|k| (p.v[1][k] - p.v[0][k]) as i128);
                     let e2 = [0, 1, 2].map(|k| (p.v[2][k] - p.v[0][k]) as i128);
-                    let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+                    let n = [
+                        e1[1] * e2[2] - e1[2] * e2[1],
+                        e1[2] * e2[0] - e1[0] * e2[2],
+                        e1[0] * e2[1] - e1[1] * e2[0],
+                    ];
                     n[0] * d[0] as i128 + n[1] * d[1] as i128 + n[2] * d[2] as i128
                 })
                 .collect();
@@ -164,5 +201,10 @@ fn stress_edges_no_leaks_no_double_hits() {
             }
         }
     }
-    assert_eq!((leaks, doubles), (0, 0), "of {} shared edges × 3 directions", shared.len());
+    assert_eq!(
+        (leaks, doubles),
+        (0, 0),
+        "of {} shared edges × 3 directions",
+        shared.len()
+    );
 }

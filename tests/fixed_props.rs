@@ -26,7 +26,10 @@ fn patch() -> impl Strategy<Value = Patch> {
             vec![a, b, c]
         };
         let p = Patch::new(verts, 0.0, 0.5);
-        let inside = p.vertices.iter().all(|v| v.cmpge(DVec3::ZERO).all() && v.cmple(DVec3::ONE).all());
+        let inside = p
+            .vertices
+            .iter()
+            .all(|v| v.cmpge(DVec3::ZERO).all() && v.cmple(DVec3::ONE).all());
         (inside && p.check().is_ok() && p.area() > 1e-4).then_some(p)
     })
 }

@@ -24,17 +24,14 @@ pub struct DatapathConfig {
     pub cell_margin_lsb: u32,
 }
 
+/// The paper machine's configuration file, built in: the one source of the defaults.
+pub const PAPER_TOML: &str = include_str!("../configs/paper.toml");
+
 impl Default for DatapathConfig {
-    /// The default, sized for the unit cube (see the bits chart, docs/figures/bits-*.svg).
+    /// The `[datapath]` of hw/configs/paper.toml, sized for the unit cube (see the bits
+    /// chart, docs/figures/bits-scene2.svg).
     fn default() -> Self {
-        DatapathConfig {
-            frac_bits: 20,
-            coord_int_bits: 2,
-            t_frac_bits: 20,
-            t_int_bits: 3,
-            word_bits: 32,
-            cell_margin_lsb: 4,
-        }
+        DatapathConfig::from_toml_str(PAPER_TOML).expect("hw/configs/paper.toml is valid")
     }
 }
 
@@ -225,8 +222,8 @@ mod tests {
     #[test]
     fn default_formats_derive() {
         let f = DatapathConfig::default().formats().unwrap();
-        assert_eq!(f.coord, Format::new(2, 20));
-        assert_eq!(f.edge, Format::new(8, 40));
+        assert_eq!(f.coord, Format::new(2, 12));
+        assert_eq!(f.edge, Format::new(8, 24));
         assert!(f.t_num.bits() < 127);
     }
 

@@ -309,7 +309,7 @@ mod tests {
     #[test]
     fn shear_factors_are_rounded_quotients() {
         let f = DatapathConfig::default().formats().unwrap();
-        let one = 1i64 << 20;
+        let one = 1i64 << f.dir.frac_bits;
         let r = RayRecord::new(0, [0; 3], [one / 2, -one / 4, one], &f);
         assert_eq!((r.kx, r.ky, r.kz), (0, 1, 2));
         assert_eq!(r.sx, one / 2);
