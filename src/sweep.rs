@@ -21,17 +21,35 @@ pub struct BitsRow {
     pub cost: HardwareCost,
 }
 
+/// What a sweep runs on: the scene (named `file` in errors), its float tracer, the rays.
+pub struct SweepInput<'a> {
+    pub scene: &'a Scene,
+    pub file: &'a Path,
+    pub tracer: &'a Tracer,
+    pub cell: f64,
+    pub set: &'a RaySet,
+    pub source: u32,
+}
+
+/// A row's value to plot.
+type Metric = fn(&BitsRow) -> f64;
+/// A row's cost to plot.
+type CostMetric = fn(&BitsRow) -> u64;
+
 /// Runs the check for every fractional width in `bits` (coordinates and t alike).
 pub fn sweep_bits(
-    scene: &Scene,
-    file: &Path,
-    tracer: &Tracer,
+    input: &SweepInput,
     base: DatapathConfig,
-    cell: f64,
-    set: &RaySet,
-    source: u32,
     bits: std::ops::RangeInclusive<u32>,
 ) -> Result<Vec<BitsRow>> {
+    let SweepInput {
+        scene,
+        file,
+        tracer,
+        cell,
+        set,
+        source,
+    } = *input;
     let mut rows = Vec::new();
     for b in bits {
         let mut cfg = base;
@@ -196,7 +214,7 @@ pub fn svg(rows: &[BitsRow], title: &str) -> String {
             .y_desc("bits")
             .draw()
             .expect("mesh");
-        let costs: [(&str, RGBColor, fn(&BitsRow) -> u64); 2] = [
+        let costs: [(&str, RGBColor, CostMetric); 2] = [
             ("multiplier bit-products (Σ a·b)", MAGENTA, |r| {
                 r.cost.multiplier_bits
             }),
