@@ -302,16 +302,15 @@ pub fn run(cli: Cli) -> Result<()> {
                 Origins::Patch,
                 seed,
             );
-            let rows = crate::sweep::sweep_bits(
-                &scene,
-                &file,
-                &tracer,
-                base,
-                DEFAULT_CELL,
-                &set,
+            let input = crate::sweep::SweepInput {
+                scene: &scene,
+                file: &file,
+                tracer: &tracer,
+                cell: DEFAULT_CELL,
+                set: &set,
                 source,
-                from..=to,
-            )?;
+            };
+            let rows = crate::sweep::sweep_bits(&input, base, from..=to)?;
             println!(
                 "{:>4} {:>10} {:>12} {:>12} {:>11} {:>8}",
                 "F", "mismatches", "ff_err_max", "sampling", "mult bits", "unexpl."
