@@ -140,17 +140,13 @@ pub fn svg(rows: &[BitsRow], title: &str) -> String {
             .y_label_formatter(&|y| format!("{y:.0e}"))
             .draw()
             .expect("mesh");
-        let series: [(&str, RGBColor, Box<dyn Fn(&BitsRow) -> f64>); 2] = [
-            (
-                "mismatch rate (fixed vs float hit)",
-                BLUE,
-                Box::new(|r| r.report.mismatches as f64 / r.report.rays as f64),
-            ),
-            (
-                "form-factor error, max over patches",
-                RED,
-                Box::new(|r| r.report.ff_err_max),
-            ),
+        let series: [(&str, RGBColor, Metric); 2] = [
+            ("mismatch rate (fixed vs float hit)", BLUE, |r| {
+                r.report.mismatches as f64 / r.report.rays as f64
+            }),
+            ("form-factor error, max over patches", RED, |r| {
+                r.report.ff_err_max
+            }),
         ];
         for (name, color, f) in series {
             let pts: Vec<(f64, f64)> = rows
