@@ -134,7 +134,8 @@ fn stress_edges_no_leaks_no_double_hits() {
         .filter(|&i| scene.patches[i].normal().z.abs() > 0.5)
         .collect();
     // Shared edges by the bits of their fixed-point endpoints.
-    let mut edges: std::collections::BTreeMap<([i64; 3], [i64; 3]), Vec<u32>> = Default::default();
+    type Edge = ([i64; 3], [i64; 3]);
+    let mut edges: std::collections::BTreeMap<Edge, Vec<u32>> = Default::default();
     for &i in &flat {
         let p = &host.scene.patches[i];
         let n = p.n_verts as usize;
@@ -146,8 +147,7 @@ fn stress_edges_no_leaks_no_double_hits() {
                 .push(i as u32);
         }
     }
-    let shared: Vec<(([i64; 3], [i64; 3]), Vec<u32>)> =
-        edges.into_iter().filter(|(_, v)| v.len() == 2).collect();
+    let shared: Vec<(Edge, Vec<u32>)> = edges.into_iter().filter(|(_, v)| v.len() == 2).collect();
     assert!(shared.len() > 500);
     let mut leaks = 0;
     let mut doubles = 0;

@@ -61,9 +61,7 @@ proptest! {
             bounds: Aabb { lo: DVec3::ZERO, hi: DVec3::ONE },
             patches,
         };
-        let mut cfg = DatapathConfig::default();
-        cfg.frac_bits = frac_bits;
-        cfg.t_frac_bits = frac_bits;
+        let cfg = DatapathConfig { frac_bits, t_frac_bits: frac_bits, ..Default::default() };
         let tracer = Tracer::new(&scene, 0.05).unwrap();
         let host = HostFixed::new(&scene, Path::new("prop"), cfg, 0.05).unwrap();
         let set = RaySet { rays: vec![Ray { o, d }], weights: vec![1.0] };
