@@ -28,6 +28,11 @@ pub enum Command {
     Scene(SceneCmd),
     /// Form factors from one source patch by the float reference tracer.
     Reference(ReferenceArgs),
+    /// The float reference against the untimed fixed-point model on the same rays.
+    Check(CheckArgs),
+    /// Sweep a model parameter and chart accuracy against cost.
+    #[command(subcommand)]
+    Sweep(SweepCmd),
     /// The shelling partition: low-resolution pass, sections and sectors, shells and
     /// subshells, workloads predicted against actual, patch loads, schedule.
     Partition(crate::partition::PartitionArgs),
@@ -98,6 +103,99 @@ pub struct ReferenceArgs {
     pub json: Option<PathBuf>,
 }
 
+#[derive(Subcommand, Debug)]
+pub enum SweepCmd {
+    /// Mismatch rate and form-factor error against fractional bits (CSV + SVG).
+    Bits {
+        /// The scene file (.json or .obj).
+        #[arg(long)]
+        scene: PathBuf,
+        /// The source patch id.
+        #[arg(long, default_value_t = 0)]
+        source: u32,
+        /// Number of rays (default: the paper's 969 × its largest Hi_Low_Ratio, 30).
+        #[arg(long, default_value_t = 29070)]
+        rays: usize,
+        /// Direction set.
+        #[arg(long, value_enum, default_value_t = Directions::Malley)]
+        directions: Directions,
+        /// Seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Fewest fractional bits.
+        #[arg(long, default_value_t = 8)]
+        from: u32,
+        /// Most fractional bits.
+        #[arg(long, default_value_t = 30)]
+        to: u32,
+        /// Output directory: bits-<scene>.csv and bits-<scene>.svg.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        #[command(flatten)]
+        datapath: DatapathArgs,
+    },
+}
+
+/// Arguments of `shellsim check`.
+#[derive(clap::Args, Debug)]
+pub struct CheckArgs {
+    #[command(flatten)]
+    pub rays: ReferenceArgs,
+    #[command(flatten)]
+    pub datapath: DatapathArgs,
+}
+
+/// Which datapath formats to use.
+#[derive(clap::Args, Debug, Clone)]
+pub struct DatapathArgs {
+    /// A machine configuration (TOML with a [datapath] table); default hw/configs/paper.toml
+    /// (built in).
+    #[arg(long)]
+    pub hw: Option<PathBuf>,
+    /// A named configuration: hw/configs/NAME.toml.
+    #[arg(long, conflicts_with = "hw")]
+    pub format: Option<String>,
+    /// Override the fractional bits of coordinates, directions and t.
+    #[arg(long)]
+    pub frac_bits: Option<u32>,
+}
+
+use shellsim_hw::config::PAPER_TOML;
+
+impl DatapathArgs {
+    /// The resolved datapath configuration.
+    pub fn resolve(&self) -> Result<shellsim_hw::DatapathConfig> {
+        let (text, file) = match (&self.hw, &self.format) {
+            (Some(p), _) => (
+                std::fs::read_to_string(p).map_err(|e| Error::unreadable(p, e))?,
+                p.clone(),
+            ),
+            (None, Some(name)) => {
+                let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+                    .join("hw/configs")
+                    .join(format!("{name}.toml"));
+                (
+                    std::fs::read_to_string(&p).map_err(|e| Error::unreadable(&p, e))?,
+                    p,
+                )
+            }
+            (None, None) => (
+                PAPER_TOML.to_string(),
+                PathBuf::from("<built-in hw/configs/paper.toml>"),
+            ),
+        };
+        let mut cfg = shellsim_hw::DatapathConfig::from_toml_str(&text)
+            .map_err(|e| Error::input(&file, e.key, e.what))?;
+        if let Some(b) = self.frac_bits {
+            cfg.frac_bits = b;
+            cfg.t_frac_bits = b;
+            cfg.formats()
+                .map_err(|e| Error::input(Path::new("--frac-bits"), e.key, e.what))?;
+        }
+        Ok(cfg)
+    }
+}
+
 /// Runs the job the command line asks for.
 pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
@@ -142,6 +240,110 @@ pub fn run(cli: Cli) -> Result<()> {
                 let text = serde_json::to_string_pretty(&report).expect("a report serializes");
                 write_atomic(out, (text + "\n").as_bytes())?;
             }
+            Ok(())
+        }
+        Some(Command::Check(a)) => {
+            let scene = Scene::load(&a.rays.scene)?;
+            let cfg = a.datapath.resolve()?;
+            let r = &a.rays;
+            check_source_and_rays(&scene, &r.scene, r.source, r.rays)?;
+            let tracer = Tracer::new(&scene, r.cell)?;
+            let host = crate::fixed::HostFixed::new(&scene, &r.scene, cfg, r.cell)?;
+            let set = hemisphere_rays(
+                &scene.patches[r.source as usize],
+                r.rays,
+                r.directions,
+                Origins::Patch,
+                r.seed,
+            );
+            let report = crate::check::check(&tracer, &host, &set, r.source, Default::default());
+            print_check(&report);
+            if let Some(out) = &r.json {
+                #[derive(serde::Serialize)]
+                struct Out<'a> {
+                    datapath: shellsim_hw::DatapathConfig,
+                    #[serde(flatten)]
+                    report: &'a crate::check::CheckReport,
+                }
+                let text = serde_json::to_string_pretty(&Out {
+                    datapath: cfg,
+                    report: &report,
+                })
+                .expect("a report serializes");
+                write_atomic(out, (text + "\n").as_bytes())?;
+            }
+            if report.unexplained_mismatches > 0 {
+                return Err(Error::Check(format!(
+                    "{} unexplained mismatches (listed in the JSON report)",
+                    report.unexplained_mismatches
+                )));
+            }
+            Ok(())
+        }
+        Some(Command::Sweep(SweepCmd::Bits {
+            scene: file,
+            source,
+            rays,
+            directions,
+            seed,
+            from,
+            to,
+            out,
+            datapath,
+        })) => {
+            let scene = Scene::load(&file)?;
+            check_source_and_rays(&scene, &file, source, rays)?;
+            if from > to {
+                return Err(Error::Usage(format!("--from {from} is above --to {to}")));
+            }
+            let base = datapath.resolve()?;
+            let tracer = Tracer::new(&scene, DEFAULT_CELL)?;
+            let set = hemisphere_rays(
+                &scene.patches[source as usize],
+                rays,
+                directions,
+                Origins::Patch,
+                seed,
+            );
+            let input = crate::sweep::SweepInput {
+                scene: &scene,
+                file: &file,
+                tracer: &tracer,
+                cell: DEFAULT_CELL,
+                set: &set,
+                source,
+            };
+            let rows = crate::sweep::sweep_bits(&input, base, from..=to)?;
+            println!(
+                "{:>4} {:>10} {:>12} {:>12} {:>11} {:>8}",
+                "F", "mismatches", "ff_err_max", "sampling", "mult bits", "unexpl."
+            );
+            for r in &rows {
+                println!(
+                    "{:>4} {:>10} {:>12.3e} {:>12.3e} {:>11} {:>8}",
+                    r.frac_bits,
+                    r.report.mismatches,
+                    r.report.ff_err_max,
+                    r.report.ff_sampling_err,
+                    r.cost.multiplier_bits,
+                    r.report.unexplained_mismatches
+                );
+            }
+            match crate::sweep::recommended(&rows) {
+                Some(b) => println!(
+                    "fewest bits whose form-factor error stays under the sampling error: {b}"
+                ),
+                None => println!(
+                    "no width in the sweep keeps the form-factor error under the sampling error"
+                ),
+            }
+            let stem = format!("bits-{}", scene.name);
+            let title = format!(
+                "{}: fixed point vs float, {} {:?} rays from patch {}",
+                scene.name, rays, directions, source
+            );
+            crate::sweep::write(&out, &stem, &rows, &title)?;
+            println!("wrote {}/{stem}.csv and .svg", out.display());
             Ok(())
         }
         Some(Command::Partition(a)) => crate::partition::cli::run(&a),
@@ -335,6 +537,23 @@ fn analytic_check() -> (f64, f64, f64) {
     let truth = crate::analytic::point_to_polygon(centre, DVec3::Z, &cube.patches[1].vertices);
     // Stratified error model of tests/convergence.rs.
     (f, truth, 0.7 * (n as f64).powf(-0.75))
+}
+
+fn print_check(r: &crate::check::CheckReport) {
+    println!("{}: {} rays, {} mismatches", r.format, r.rays, r.mismatches);
+    println!(
+        "  explained: {} overflow, {} near the origin, {} grazing, {} near an edge or vertex, {} tie in t; unexplained: {}",
+        r.classes.overflow, r.classes.near_origin, r.classes.grazing, r.classes.near_edge, r.classes.tie, r.unexplained_mismatches
+    );
+    println!(
+        "  t error: max {:.2} LSB, rms {:.2} LSB; form factors: max error {:.2e} (sampling error {:.2e})",
+        r.t_err_max_lsb, r.t_err_rms_lsb, r.ff_err_max, r.ff_sampling_err
+    );
+    let e = &r.exceptions;
+    println!(
+        "  exceptions: {} overflow, {} near-zero denominators, {} t saturated",
+        e.overflow, e.near_zero_denominator, e.t_saturated
+    );
 }
 
 fn scene_info(file: &Path, cell: f64) -> Result<()> {

@@ -2,8 +2,10 @@
 //! grid, ray sets, the float reference tracer, analytic form factors, and the CLI's jobs.
 
 pub mod analytic;
+pub mod check;
 pub mod cli;
 pub mod error;
+pub mod fixed;
 pub mod gen;
 pub mod grid;
 pub mod obj;
@@ -12,6 +14,7 @@ pub mod progress;
 pub mod rays;
 pub mod reference;
 pub mod scene;
+pub mod sweep;
 pub mod trace;
 
 pub use error::{Error, Result};

@@ -113,9 +113,9 @@ macro_rules! cases {
 
 cases! {
     // --- valid scenes: the tests must be able to fail the other way too.
-    json_valid_scene: "valid.json", json_scene(BOUNDS, None) => 0, ["patches   3"];
+    json_valid_scene: "valid.json", json_scene(BOUNDS, None) => 0, ["patches      3 ("];
     obj_valid_scene: "valid.obj",
-        obj_with("v 0 1.3 0.5\nv 0 -0.3 0.5\nf 1 4 9 8 5 10\nl 1 7\n") => 0, ["patches   7"];
+        obj_with("v 0 1.3 0.5\nv 0 -0.3 0.5\nf 1 4 9 8 5 10\nl 1 7\n") => 0, ["patches      7 ("];
 
     // --- JSON: patch geometry.
     json_non_planar_quad: "nonplanar.json",
@@ -261,7 +261,7 @@ fn obj_valid_materials() {
         &[("lit.obj", obj.as_bytes()), ("m.mtl", mtl)],
         "lit.obj",
         0,
-        &["patches   3"],
+        &["patches      3 ("],
     );
 }
 

@@ -1,0 +1,297 @@
+//! The float reference against the untimed fixed-point model on the same rays: mismatches,
+//! each put into an explained class (overflow, a tie in t, near an edge or vertex, grazing)
+//! or reported as unexplained; t error in LSBs; form-factor error.
+
+use crate::fixed::HostFixed;
+use crate::rays::RaySet;
+use crate::reference::form_factors;
+use crate::trace::{Hit, PatchGeom, PreparedRay, Ray, Tracer};
+use rayon::prelude::*;
+use serde::Serialize;
+use shellsim_hw::{Exceptions, FixedHit};
+
+/// Tolerances of the classes.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct Tolerances {
+    /// "Near an edge or vertex": the hit point within `edge_lsb · (1 + 2t) / |n·d|`
+    /// coordinate LSBs of the patch's boundary (the quantized ray strays about an LSB per
+    /// unit of t; on the patch's plane the stray grows by 1/|cos| of the incidence angle).
+    pub edge_lsb: f64,
+    /// "Tie in t": the two patches' float t within `tie_lsb · (1 + 2t)` t LSBs.
+    pub tie_lsb: f64,
+    /// "Grazing": |n·d| under this for a patch involved.
+    pub grazing_cos: f64,
+}
+
+impl Default for Tolerances {
+    fn default() -> Self {
+        Tolerances {
+            edge_lsb: 4.0,
+            tie_lsb: 4.0,
+            grazing_cos: 0.01,
+        }
+    }
+}
+
+/// Mismatch counts per class (each mismatch in the first class that explains it, checked
+/// in the order overflow, near the origin, grazing, near an edge, tie).
+#[derive(Clone, Copy, Debug, Default, Serialize, PartialEq, Eq)]
+pub struct Classes {
+    pub overflow: u64,
+    pub near_origin: u64,
+    pub grazing: u64,
+    pub near_edge: u64,
+    pub tie: u64,
+}
+
+/// One unexplained mismatch, with what it takes to reproduce it.
+#[derive(Clone, Debug, Serialize)]
+pub struct Unexplained {
+    pub ray: usize,
+    pub origin: [f64; 3],
+    pub direction: [f64; 3],
+    pub float_hit: Option<(u32, f64)>,
+    pub fixed_hit: Option<(u32, f64)>,
+}
+
+/// The report of `shellsim check`.
+#[derive(Clone, Debug, Serialize)]
+pub struct CheckReport {
+    pub format: String,
+    pub rays: usize,
+    pub mismatches: u64,
+    pub classes: Classes,
+    pub unexplained_mismatches: u64,
+    pub t_err_max_lsb: f64,
+    pub t_err_rms_lsb: f64,
+    pub ff_err_max: f64,
+    /// max over patches of the binomial sampling error √(F(1−F)/N) of the float estimate.
+    pub ff_sampling_err: f64,
+    pub exceptions: Exceptions,
+    pub tolerances: Tolerances,
+    pub unexplained: Vec<Unexplained>,
+}
+
+/// Distance from `p` to the boundary of a polygon.
+fn boundary_distance(g: &PatchGeom, p: glam::DVec3) -> f64 {
+    let n = g.n_verts as usize;
+    (0..n)
+        .map(|k| {
+            let a = g.v[k];
+            let b = g.v[(k + 1) % n];
+            let ab = b - a;
+            let s = ((p - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0);
+            p.distance(a + ab * s)
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Per-ray outcome.
+struct Outcome {
+    float: Option<Hit>,
+    fixed: Option<FixedHit>,
+    exc: Exceptions,
+    class: Option<Option<Class>>,
+    t_err_lsb: Option<f64>,
+}
+
+#[derive(Clone, Copy)]
+enum Class {
+    Overflow,
+    NearOrigin,
+    Tie,
+    NearEdge,
+    Grazing,
+}
+
+/// Runs both models on `set` from `source` and classifies every difference.
+pub fn check(
+    tracer: &Tracer,
+    host: &HostFixed,
+    set: &RaySet,
+    source: u32,
+    tol: Tolerances,
+) -> CheckReport {
+    let f = *host.formats();
+    let lsb_c = f.coord.lsb();
+    let lsb_t = f.t.lsb();
+    let outcomes: Vec<Outcome> = set
+        .rays
+        .par_iter()
+        .enumerate()
+        .map(|(i, ray)| {
+            let float = tracer.trace(ray, Some(source));
+            let mut exc = Exceptions::default();
+            let rec = host.ray(i as u32, ray);
+            let fixed = rec.and_then(|r| host.scene.nearest_grid(&r, Some(source), &mut exc).0);
+            if rec.is_none() {
+                exc.overflow += 1;
+            }
+            let same = match (float, fixed) {
+                (None, None) => true,
+                (Some(a), Some(b)) => a.patch == b.patch,
+                _ => false,
+            };
+            let t_err_lsb = match (float, fixed) {
+                (Some(a), Some(b)) if same => Some((host.t_f64(b.t) - a.t).abs() / lsb_t),
+                _ => None,
+            };
+            let class =
+                (!same).then(|| classify(tracer, host, ray, float, fixed, &exc, tol, lsb_c, lsb_t));
+            Outcome {
+                float,
+                fixed,
+                exc,
+                class,
+                t_err_lsb,
+            }
+        })
+        .collect();
+    let mut classes = Classes::default();
+    let mut exceptions = Exceptions::default();
+    let mut mismatches = 0;
+    let mut unexplained = Vec::new();
+    let mut unexplained_n = 0;
+    let (mut t_max, mut t_sq, mut t_n) = (0.0f64, 0.0f64, 0usize);
+    for (i, o) in outcomes.iter().enumerate() {
+        exceptions.add(&o.exc);
+        if let Some(e) = o.t_err_lsb {
+            t_max = t_max.max(e);
+            t_sq += e * e;
+            t_n += 1;
+        }
+        if let Some(c) = o.class {
+            mismatches += 1;
+            match c {
+                Some(Class::Overflow) => classes.overflow += 1,
+                Some(Class::NearOrigin) => classes.near_origin += 1,
+                Some(Class::Tie) => classes.tie += 1,
+                Some(Class::NearEdge) => classes.near_edge += 1,
+                Some(Class::Grazing) => classes.grazing += 1,
+                None => {
+                    unexplained_n += 1;
+                    if unexplained.len() < 20 {
+                        let r = &set.rays[i];
+                        unexplained.push(Unexplained {
+                            ray: i,
+                            origin: r.o.to_array(),
+                            direction: r.d.to_array(),
+                            float_hit: o.float.map(|h| (h.patch, h.t)),
+                            fixed_hit: o.fixed.map(|h| (h.patch, host.t_f64(h.t))),
+                        });
+                    }
+                }
+            }
+        }
+    }
+    let n = tracer.patches.len();
+    let float_hits: Vec<Option<Hit>> = outcomes.iter().map(|o| o.float).collect();
+    let fixed_hits: Vec<Option<Hit>> = outcomes
+        .iter()
+        .map(|o| {
+            o.fixed.map(|h| Hit {
+                patch: h.patch,
+                t: host.t_f64(h.t),
+            })
+        })
+        .collect();
+    let (ff_a, _, _) = form_factors(&float_hits, &set.weights, n);
+    let (ff_b, _, _) = form_factors(&fixed_hits, &set.weights, n);
+    let mut dense = vec![0.0f64; n];
+    for x in &ff_a {
+        dense[x.patch as usize] += x.value;
+    }
+    let mut err = dense.clone();
+    for x in &ff_b {
+        err[x.patch as usize] -= x.value;
+    }
+    let ff_err_max = err.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+    let nr = set.len() as f64;
+    let ff_sampling_err = dense
+        .iter()
+        .fold(0.0f64, |m, &p| m.max((p * (1.0 - p) / nr).max(0.0).sqrt()));
+    CheckReport {
+        format: format!("coord {}, t {}", f.coord, f.t),
+        rays: set.len(),
+        mismatches,
+        classes,
+        unexplained_mismatches: unexplained_n,
+        t_err_max_lsb: t_max,
+        t_err_rms_lsb: if t_n > 0 {
+            (t_sq / t_n as f64).sqrt()
+        } else {
+            0.0
+        },
+        ff_err_max,
+        ff_sampling_err,
+        exceptions,
+        tolerances: tol,
+        unexplained,
+    }
+}
+
+/// Why the two models disagree on `ray`, if an explained class covers it.
+#[allow(clippy::too_many_arguments)]
+fn classify(
+    tracer: &Tracer,
+    host: &HostFixed,
+    ray: &Ray,
+    float: Option<Hit>,
+    fixed: Option<FixedHit>,
+    exc: &Exceptions,
+    tol: Tolerances,
+    lsb_c: f64,
+    lsb_t: f64,
+) -> Option<Class> {
+    if exc.overflow > 0 || exc.t_saturated > 0 {
+        return Some(Class::Overflow);
+    }
+    let pr = PreparedRay::new(ray);
+    let dn = ray.d.normalize();
+    // The patches involved, with the float t at which the ray meets each one's plane.
+    let mut involved: Vec<(u32, f64)> = Vec::new();
+    if let Some(a) = float {
+        involved.push((a.patch, a.t));
+    }
+    if let Some(b) = fixed {
+        let g = &tracer.patches[b.patch as usize];
+        let t = g.plane_t(&pr);
+        let t = if t.is_finite() && t > 0.0 {
+            t
+        } else {
+            host.t_f64(b.t)
+        };
+        involved.push((b.patch, t));
+    }
+    // A hit within a few LSBs of the origin: the quantized origin may lie on the other
+    // side of that surface (rays leaving a patch where it meets another).
+    let len = ray.d.length();
+    if involved
+        .iter()
+        .any(|&(_, t)| t * len <= tol.edge_lsb * lsb_c)
+    {
+        return Some(Class::NearOrigin);
+    }
+    for &(id, _) in &involved {
+        if tracer.patches[id as usize].normal.dot(dn).abs() < tol.grazing_cos {
+            return Some(Class::Grazing);
+        }
+    }
+    for &(id, t) in &involved {
+        let g = &tracer.patches[id as usize];
+        let p = ray.o + ray.d * t;
+        // The quantized ray strays about an LSB per unit of t from the float one; on the
+        // patch's plane that offset grows by 1/|cos| of the incidence angle.
+        let cos = g.normal.dot(dn).abs();
+        if boundary_distance(g, p) <= tol.edge_lsb * lsb_c * (1.0 + 2.0 * t) / cos {
+            return Some(Class::NearEdge);
+        }
+    }
+    if let [(_, ta), (_, tb)] = involved[..] {
+        let t = ta.max(tb);
+        if (ta - tb).abs() <= tol.tie_lsb * lsb_t * (1.0 + 2.0 * t) {
+            return Some(Class::Tie);
+        }
+    }
+    None
+}
