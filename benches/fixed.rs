@@ -16,7 +16,13 @@ fn bench(c: &mut Criterion) {
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
     let tracer = Tracer::new(&scene, 0.05).unwrap();
     let host = HostFixed::new(&scene, &path, DatapathConfig::default(), 0.05).unwrap();
-    let set = hemisphere_rays(&scene.patches[0], PAPER_RAYS, Directions::Rings, Origins::Patch, 1);
+    let set = hemisphere_rays(
+        &scene.patches[0],
+        PAPER_RAYS,
+        Directions::Rings,
+        Origins::Patch,
+        1,
+    );
     let records: Vec<_> = set
         .rays
         .iter()
