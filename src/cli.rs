@@ -30,6 +30,8 @@ pub enum Command {
     Reference(ReferenceArgs),
     /// The float reference against the untimed fixed-point model on the same rays.
     Check(CheckArgs),
+    /// Partition, simulate the cycle-level machine, check against the fixed-point model.
+    Run(RunArgs),
     /// Sweep a model parameter and chart accuracy against cost.
     #[command(subcommand)]
     Sweep(SweepCmd),
@@ -134,6 +136,42 @@ pub enum SweepCmd {
         #[command(flatten)]
         datapath: DatapathArgs,
     },
+}
+
+/// Arguments of `shellsim run`.
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    /// The scene file (.json or .obj).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Machine configuration (TOML); default hw/configs/paper.toml (built in).
+    #[arg(long)]
+    pub hw: Option<PathBuf>,
+    /// The source patch id.
+    #[arg(long, default_value_t = 0)]
+    pub source: u32,
+    /// Hi_Low_Ratio: the machine casts ratio × 969 rays.
+    #[arg(long, default_value_t = 10)]
+    pub ratio: usize,
+    /// Write the statistics (and the resolved configuration) as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// Reads a machine configuration (the built-in paper.toml when `path` is None).
+pub fn machine_config(path: Option<&Path>) -> Result<shellsim_hw::machine_config::MachineConfig> {
+    let (text, file) = match path {
+        Some(p) => (
+            std::fs::read_to_string(p).map_err(|e| Error::unreadable(p, e))?,
+            p.to_path_buf(),
+        ),
+        None => (
+            PAPER_TOML.to_string(),
+            PathBuf::from("<built-in hw/configs/paper.toml>"),
+        ),
+    };
+    shellsim_hw::machine_config::MachineConfig::from_toml_str(&text)
+        .map_err(|e| Error::input(&file, e.key, e.what))
 }
 
 /// Arguments of `shellsim check`.
@@ -347,6 +385,42 @@ pub fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Some(Command::Partition(a)) => crate::partition::cli::run(&a),
+        Some(Command::Run(a)) => {
+            let scene = Scene::load(&a.scene)?;
+            let cfg = machine_config(a.hw.as_deref())?;
+            let spec = crate::run::RunSpec {
+                source: a.source,
+                ratio: a.ratio,
+                cell: DEFAULT_CELL,
+                order: shellsim_hw::machine::TickOrder::Forward,
+            };
+            let out = crate::run::run(&scene, &a.scene, &cfg, &spec, None)?;
+            let s = &out.stats;
+            println!(
+                "{}: {} rays, {} cycles, pipeline efficiency {:.3}, {} patch loads, {} jobs, {} mismatches vs fixed, {:.2} M cycles/s",
+                s.scene, s.rays, s.cycles, s.pipeline_efficiency, s.patch_loads, s.jobs, s.mismatches_vs_fixed, s.sim_rate_hz / 1e6
+            );
+            if let Some(out_path) = &a.json {
+                #[derive(serde::Serialize)]
+                struct Out<'a> {
+                    config: shellsim_hw::machine_config::MachineConfig,
+                    stats: &'a crate::run::RunStats,
+                }
+                let text = serde_json::to_string_pretty(&Out {
+                    config: cfg,
+                    stats: s,
+                })
+                .expect("serializes");
+                write_atomic(out_path, (text + "\n").as_bytes())?;
+            }
+            if s.mismatches_vs_fixed > 0 {
+                return Err(Error::Check(format!(
+                    "{} rays differ from the fixed-point model",
+                    s.mismatches_vs_fixed
+                )));
+            }
+            Ok(())
+        }
         None => default_job(),
     }
 }

@@ -13,6 +13,7 @@ pub mod partition;
 pub mod progress;
 pub mod rays;
 pub mod reference;
+pub mod run;
 pub mod scene;
 pub mod sweep;
 pub mod trace;

@@ -20,6 +20,9 @@ pub struct FixedDda {
     /// |d_a| (direction LSBs); 0 is "never crosses".
     den: [i64; 3],
     cell_raw: i64,
+    /// The current cell's entry t as the fraction num/den (0/1 for the first cell).
+    entry_num: i64,
+    entry_den: i64,
 }
 
 impl FixedDda {
@@ -34,6 +37,8 @@ impl FixedDda {
             n: [0; 3],
             den: [0; 3],
             cell_raw: cr,
+            entry_num: 0,
+            entry_den: 1,
         };
         for a in 0..3 {
             let o = r.o[a];
@@ -99,8 +104,23 @@ impl FixedDda {
             return false;
         }
         self.c[a] = c as u32;
+        self.entry_num = self.n[a];
+        self.entry_den = self.den[a];
         self.n[a] += self.cell_raw;
         true
+    }
+
+    /// True when the current cell is entered at or beyond `t` (raw, `t_frac` fractional
+    /// bits): exactly num/den ≥ t.
+    #[inline]
+    pub fn entry_at_or_beyond(&self, t: i64, t_frac: u32) -> bool {
+        ((self.entry_num as i128) << t_frac) >= t as i128 * self.entry_den as i128
+    }
+
+    /// True when the current cell is entered beyond `t`: num/den > t.
+    #[inline]
+    pub fn entry_beyond(&self, t: i64, t_frac: u32) -> bool {
+        ((self.entry_num as i128) << t_frac) > t as i128 * self.entry_den as i128
     }
 }
 

@@ -1,0 +1,439 @@
+//! The cell traversal unit (CTU): for each shell of its sector it steps the sector's
+//! remaining rays through the shell's cells with the fixed-point DDA, requests every patch of
+//! those cells its sector has not loaded yet, issues one job per (remaining ray, arrived
+//! patch), takes the results back and keeps each ray's nearest hit. A (sub)shell ends with a
+//! join: traversal done AND every job back (the paper's C_Join and R_Join); then a ray
+//! retires when no unprocessed cell can hold a nearer hit.
+//!
+//! Three parts act in the same cycle, as separate hardware would: the traversal FSM, the job
+//! issuer (one job per cycle), the result port (one result per cycle). It reads only its own
+//! state and the links' registered state (see `link`).
+//!
+//! Traversal FSM:
+//! - `Idle` → `ShellStart` on the first cycle.
+//! - `ShellStart`: the shell's outer radius; the first remaining ray → `Scan`.
+//! - `Scan`: looks at one patch id of the current cell per cycle; an id not yet loaded
+//!   (and not the source) goes out as a request (`Request` when the request link is full).
+//!   When the cell is done: a subshell join if this subshell has loaded its quota, else `Step`.
+//! - `Step`: one DDA step (dda_cycles_per_step cycles). The next cell is scanned if it is
+//!   entered inside the shell; otherwise the next ray's turn comes; after the last ray,
+//!   `Join` ends the shell.
+//! - `Join`: waits until every requested patch has arrived and all its jobs are back, then
+//!   retires rays, and goes on with the shell (subshell join) or to the next one.
+//! - `Done`: no ray remains.
+
+use crate::datapath::{compare, FixedHit};
+use crate::dda::FixedDda;
+use crate::link::Link;
+use crate::model::STOP_SLACK_T_LSB;
+use crate::msg::{Job, JobResult, MemRequest, PatchArrival};
+use crate::record::{CellTable, RayRecord};
+use bitvec::prelude::*;
+
+/// The traversal FSM's states.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CtuState {
+    Idle,
+    ShellStart,
+    Scan,
+    Request,
+    Step,
+    Join,
+    Done,
+}
+
+impl CtuState {
+    /// The state's name (for waveforms).
+    pub fn name(self) -> &'static str {
+        match self {
+            CtuState::Idle => "IDLE",
+            CtuState::ShellStart => "SHELL_START",
+            CtuState::Scan => "SCAN",
+            CtuState::Request => "REQUEST",
+            CtuState::Step => "STEP",
+            CtuState::Join => "JOIN",
+            CtuState::Done => "DONE",
+        }
+    }
+}
+
+/// One ray of the sector.
+#[derive(Clone, Copy, Debug)]
+struct RaySlot {
+    /// The ray's global id.
+    ray: u32,
+    /// Its DDA position; `None` once it has left the grid.
+    dda: Option<FixedDda>,
+    best: Option<FixedHit>,
+    retired: bool,
+}
+
+/// CTU counters (cycles partition into busy + stalled + idle).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct CtuStats {
+    pub busy_cycles: u64,
+    pub stalled_cycles: u64,
+    pub idle_cycles: u64,
+    pub dda_steps: u64,
+    pub patch_requests: u64,
+    pub jobs_issued: u64,
+    pub results: u64,
+    pub shells: u64,
+    pub subshells: u64,
+}
+
+/// What a CTU needs that is fixed for the run.
+#[derive(Clone, Copy, Debug)]
+pub struct CtuParams {
+    pub cluster: u16,
+    pub local: u16,
+    pub source: u32,
+    pub dda_cycles_per_step: u32,
+    pub subshell_max_patches: u32,
+    /// Shell radius, t format raw.
+    pub shell_raw: i64,
+    pub t_frac: u32,
+    pub t_max: i64,
+}
+
+/// The links a CTU drives or reads.
+pub struct CtuPorts<'a> {
+    pub requests: &'a mut Link<MemRequest>,
+    pub arrivals: &'a mut Link<PatchArrival>,
+    pub jobs: &'a mut Link<Job>,
+    pub results: &'a mut Link<JobResult>,
+}
+
+/// A cell traversal unit.
+#[derive(Clone, Debug)]
+pub struct Ctu {
+    p: CtuParams,
+    pub state: CtuState,
+    slots: Vec<RaySlot>,
+    /// Slots of the rays not retired at the last join, ascending.
+    remaining: Vec<u32>,
+    loaded: BitVec,
+    shell: u32,
+    shell_limit: i64,
+    /// Position in `remaining` of the ray being traversed.
+    cursor: usize,
+    /// Next patch id of the current cell to look at.
+    cell_pos: usize,
+    /// The cycle the current DDA step completes.
+    timer: u64,
+    /// True when the join ends the shell (not only a subshell).
+    shell_end: bool,
+    subshell_loads: u32,
+    pending_loads: u32,
+    /// The patch whose jobs are being issued and the next position in `remaining`.
+    issuing: Option<(u32, usize)>,
+    outstanding: u64,
+    pub stats: CtuStats,
+}
+
+impl Ctu {
+    /// A CTU for the sector whose rays are `rays` (global ids, ascending).
+    pub fn new(
+        p: CtuParams,
+        rays: &[u32],
+        records: &[RayRecord],
+        cells: &CellTable,
+        patches: usize,
+    ) -> Self {
+        let slots: Vec<RaySlot> = rays
+            .iter()
+            .map(|&r| RaySlot {
+                ray: r,
+                dda: FixedDda::new(cells, &records[r as usize]),
+                best: None,
+                retired: false,
+            })
+            .collect();
+        Ctu {
+            p,
+            state: CtuState::Idle,
+            remaining: (0..slots.len() as u32).collect(),
+            slots,
+            loaded: bitvec![0; patches],
+            shell: 0,
+            shell_limit: 0,
+            cursor: 0,
+            cell_pos: 0,
+            timer: 0,
+            shell_end: false,
+            subshell_loads: 0,
+            pending_loads: 0,
+            issuing: None,
+            outstanding: 0,
+            stats: CtuStats::default(),
+        }
+    }
+
+    /// True when the sector is finished.
+    pub fn done(&self) -> bool {
+        self.state == CtuState::Done && self.issuing.is_none() && self.outstanding == 0
+    }
+
+    /// Each ray's nearest hit: (global ray id, hit).
+    pub fn hits(&self) -> impl Iterator<Item = (u32, Option<FixedHit>)> + '_ {
+        self.slots.iter().map(|s| (s.ray, s.best))
+    }
+
+    /// The shell being processed.
+    pub fn shell(&self) -> u32 {
+        self.shell
+    }
+
+    /// Jobs issued whose results are not back.
+    pub fn outstanding(&self) -> u64 {
+        self.outstanding
+    }
+
+    /// Patches requested that have not arrived.
+    pub fn pending_loads(&self) -> u32 {
+        self.pending_loads
+    }
+
+    /// Rays not yet retired.
+    pub fn remaining(&self) -> usize {
+        self.remaining.len()
+    }
+
+    /// The cycle its DDA step completes, while it waits on it.
+    pub fn timer(&self, now: u64) -> Option<u64> {
+        (self.state == CtuState::Step && self.timer > now).then_some(self.timer)
+    }
+
+    /// Accounts `n` cycles skipped by the machine's cycle jump: busy while a DDA step runs,
+    /// idle otherwise (waiting at a join, or done).
+    pub fn skip(&mut self, n: u64) {
+        if self.state == CtuState::Step {
+            self.stats.busy_cycles += n;
+        } else {
+            self.stats.idle_cycles += n;
+        }
+    }
+
+    /// True when the CTU does nothing until its timer or an arrival: stepping on the timer,
+    /// waiting at a join for patches still in memory, or done.
+    pub fn quiet(&self, now: u64) -> bool {
+        self.issuing.is_none()
+            && match self.state {
+                CtuState::Step => self.timer > now,
+                CtuState::Join => self.outstanding == 0 && self.pending_loads > 0,
+                CtuState::Done => true,
+                _ => false,
+            }
+    }
+
+    /// The sector's ray count.
+    pub fn rays(&self) -> usize {
+        self.slots.len()
+    }
+
+    /// One clock cycle.
+    pub fn tick(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
+        let mut busy = false;
+        let mut stalled = false;
+        // Result port: one result per cycle; the compare stage of the datapath.
+        if io.results.peek().is_some() {
+            let r = io.results.pop();
+            let slot = &mut self.slots[r.slot as usize];
+            if let Some(t) = r.t {
+                compare(&mut slot.best, FixedHit { patch: r.patch, t });
+            }
+            self.outstanding -= 1;
+            self.stats.results += 1;
+            busy = true;
+        }
+        // Job issuer: one job per cycle for the arrived patch, against every remaining ray.
+        match self.issuing {
+            Some((patch, i)) => {
+                if io.jobs.can_push() {
+                    let slot = self.remaining[i];
+                    io.jobs.push(Job {
+                        ray: self.slots[slot as usize].ray,
+                        slot,
+                        patch,
+                        ctu: self.p.local,
+                    });
+                    self.outstanding += 1;
+                    self.stats.jobs_issued += 1;
+                    self.issuing = (i + 1 < self.remaining.len()).then_some((patch, i + 1));
+                    busy = true;
+                } else {
+                    stalled = true;
+                }
+            }
+            None => {
+                if io.arrivals.peek().is_some() {
+                    let a = io.arrivals.pop();
+                    self.pending_loads -= 1;
+                    if !self.remaining.is_empty() {
+                        self.issuing = Some((a.patch, 0));
+                    }
+                    busy = true;
+                }
+            }
+        }
+        // Traversal FSM.
+        match self.state {
+            CtuState::Idle => {
+                self.state = CtuState::ShellStart;
+                busy = true;
+            }
+            CtuState::ShellStart => {
+                if self.remaining.is_empty() {
+                    self.state = CtuState::Done;
+                } else {
+                    self.shell_limit =
+                        ((self.shell as i64 + 1) * self.p.shell_raw).min(self.p.t_max);
+                    self.cursor = 0;
+                    self.cell_pos = 0;
+                    self.stats.shells += 1;
+                    self.stats.subshells += 1;
+                    self.state = self.enter_ray();
+                }
+                busy = true;
+            }
+            CtuState::Scan | CtuState::Request => {
+                let slot = self.remaining[self.cursor] as usize;
+                let dda = self.slots[slot].dda.expect("a scanned ray is in the grid");
+                let list = cells.patches_in(cells.index(dda.c));
+                if self.cell_pos < list.len() {
+                    let id = list[self.cell_pos];
+                    if id == self.p.source || self.loaded[id as usize] {
+                        self.cell_pos += 1;
+                        self.state = CtuState::Scan;
+                        busy = true;
+                    } else if io.requests.can_push() {
+                        io.requests.push(MemRequest {
+                            patch: id,
+                            cluster: self.p.cluster,
+                            ctu: self.p.local,
+                            issued: now,
+                        });
+                        self.loaded.set(id as usize, true);
+                        self.pending_loads += 1;
+                        self.subshell_loads += 1;
+                        self.stats.patch_requests += 1;
+                        self.cell_pos += 1;
+                        self.state = CtuState::Scan;
+                        busy = true;
+                    } else {
+                        self.state = CtuState::Request;
+                        stalled = true;
+                    }
+                } else if self.subshell_loads >= self.p.subshell_max_patches {
+                    // Subshell full: join before stepping on (the cell is done).
+                    self.shell_end = false;
+                    self.start_step(now);
+                    self.state = CtuState::Join;
+                    busy = true;
+                } else {
+                    self.start_step(now);
+                    busy = true;
+                }
+            }
+            CtuState::Step => {
+                busy = true;
+                if now >= self.timer {
+                    self.after_step();
+                }
+            }
+            CtuState::Join => {
+                if self.pending_loads == 0 && self.issuing.is_none() && self.outstanding == 0 {
+                    self.join();
+                    busy = true;
+                }
+            }
+            CtuState::Done => {}
+        }
+        if busy {
+            self.stats.busy_cycles += 1;
+        } else if stalled {
+            self.stats.stalled_cycles += 1;
+        } else {
+            self.stats.idle_cycles += 1;
+        }
+    }
+
+    /// The state for the ray at `cursor` (or the join after the last ray): scan its current
+    /// cell if it is entered inside the shell, else move on.
+    fn enter_ray(&mut self) -> CtuState {
+        while self.cursor < self.remaining.len() {
+            let slot = &self.slots[self.remaining[self.cursor] as usize];
+            if let Some(d) = &slot.dda {
+                if !d.entry_at_or_beyond(self.shell_limit, self.p.t_frac) {
+                    self.cell_pos = 0;
+                    return CtuState::Scan;
+                }
+            }
+            self.cursor += 1;
+        }
+        self.shell_end = true;
+        CtuState::Join
+    }
+
+    /// Starts the DDA step of the current ray (the step completes after the timer).
+    fn start_step(&mut self, now: u64) {
+        let slot = self.remaining[self.cursor] as usize;
+        let mut dda = self.slots[slot].dda.expect("stepping a ray in the grid");
+        self.slots[slot].dda = dda.step().then_some(dda);
+        self.stats.dda_steps += 1;
+        self.timer = now + self.p.dda_cycles_per_step as u64;
+        self.state = CtuState::Step;
+        self.cell_pos = 0;
+    }
+
+    /// After a step: scan the new cell if inside the shell, else the next ray.
+    fn after_step(&mut self) {
+        let slot = &self.slots[self.remaining[self.cursor] as usize];
+        let inside = slot
+            .dda
+            .as_ref()
+            .is_some_and(|d| !d.entry_at_or_beyond(self.shell_limit, self.p.t_frac));
+        if inside {
+            self.cell_pos = 0;
+            self.state = CtuState::Scan;
+        } else {
+            self.cursor += 1;
+            self.state = self.enter_ray();
+        }
+    }
+
+    /// The join: retire every ray that no unprocessed cell can give a nearer hit, then go on
+    /// with the shell (after a subshell) or start the next one.
+    fn join(&mut self) {
+        let tf = self.p.t_frac;
+        let resume_ray = self.remaining.get(self.cursor).copied();
+        for &s in &self.remaining {
+            let slot = &mut self.slots[s as usize];
+            slot.retired = match (&slot.dda, slot.best) {
+                (None, _) => true,
+                (Some(d), Some(b)) => d.entry_beyond(b.t + STOP_SLACK_T_LSB, tf),
+                (Some(_), None) => false,
+            };
+        }
+        self.remaining.retain(|&s| !self.slots[s as usize].retired);
+        self.subshell_loads = 0;
+        if self.shell_end {
+            self.shell += 1;
+            self.state = CtuState::ShellStart;
+        } else {
+            // Resume the shell at the ray that was being traversed (or the next one left).
+            self.stats.subshells += 1;
+            self.cursor = match resume_ray {
+                Some(r) => self.remaining.partition_point(|&s| s < r),
+                None => self.remaining.len(),
+            };
+            // The step begun before the join completes on its timer; then on as after a step.
+            if self.cursor < self.remaining.len() && Some(self.remaining[self.cursor]) == resume_ray
+            {
+                self.state = CtuState::Step;
+            } else {
+                self.state = self.enter_ray();
+            }
+        }
+    }
+}

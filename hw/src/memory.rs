@@ -1,0 +1,157 @@
+//! The global memory with its one port and the arbiter in front of it.
+//!
+//! The arbiter sees one request link per CTU. When the port is free it grants one waiting
+//! request: round-robin starts its search after the last requester granted, so with N
+//! requesters none waits more than N − 1 grants of the others (fair); fixed priority always
+//! takes the lowest-numbered requester (simple, may starve the others — an option for
+//! studies). A grant occupies the port for one cycle per word of the patch record; the
+//! record reaches the requester's patch buffer `latency + words` cycles after the grant. A
+//! full patch buffer holds delivery back, and the held record keeps later ones behind it.
+
+use crate::link::Link;
+use crate::machine_config::ArbiterPolicy;
+use crate::msg::{MemRequest, PatchArrival};
+use std::collections::VecDeque;
+
+/// Memory and arbiter counters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct MemoryStats {
+    pub grants: u64,
+    /// Σ over grants of the cycles the request waited for it.
+    pub wait_cycles: u64,
+    pub words: u64,
+    /// Cycles the port was occupied by a transfer.
+    pub busy_cycles: u64,
+    /// Cycles a ready record waited for room in a patch buffer.
+    pub delivery_stall_cycles: u64,
+}
+
+/// A record on its way to a patch buffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct InFlight {
+    ready: u64,
+    cluster: u16,
+    arrival: PatchArrival,
+}
+
+/// The global memory and its arbiter.
+#[derive(Clone, Debug)]
+pub struct Memory {
+    policy: ArbiterPolicy,
+    latency: u64,
+    words: u64,
+    port_free_at: u64,
+    next: usize,
+    inflight: VecDeque<InFlight>,
+    /// The requester granted last (for waveforms); `u32::MAX` before the first grant.
+    pub last_grant: u32,
+    pub stats: MemoryStats,
+}
+
+impl Memory {
+    /// A memory with `latency` cycles and `words` words per patch record.
+    pub fn new(policy: ArbiterPolicy, latency: u32, words: u32) -> Self {
+        Memory {
+            policy,
+            latency: latency as u64,
+            words: words as u64,
+            port_free_at: 0,
+            next: 0,
+            inflight: VecDeque::new(),
+            last_grant: u32::MAX,
+            stats: MemoryStats::default(),
+        }
+    }
+
+    /// Records on their way.
+    pub fn inflight(&self) -> usize {
+        self.inflight.len()
+    }
+
+    /// True when the port is occupied at cycle `now`.
+    pub fn port_busy(&self, now: u64) -> bool {
+        now < self.port_free_at
+    }
+
+    /// The next cycle at which the memory acts on its own: the port frees or a record
+    /// becomes ready. `None` when it has nothing pending.
+    pub fn timer(&self, now: u64) -> Option<u64> {
+        let mut t: Option<u64> = None;
+        if self.port_free_at > now {
+            t = Some(self.port_free_at);
+        }
+        if let Some(f) = self.inflight.front() {
+            if f.ready > now {
+                t = Some(t.map_or(f.ready, |x| x.min(f.ready)));
+            }
+        }
+        t
+    }
+
+    /// The ready cycle of the record at the front, if it is ready at `now`.
+    pub fn inflight_ready(&self, now: u64) -> Option<u64> {
+        self.inflight
+            .front()
+            .filter(|f| f.ready <= now)
+            .map(|f| f.ready)
+    }
+
+    /// Accounts `n` skipped cycles (the port stays as it was).
+    pub fn skip(&mut self, now: u64, n: u64) {
+        let busy_until = self.port_free_at.min(now + n);
+        self.stats.busy_cycles += busy_until.saturating_sub(now);
+    }
+
+    /// One clock cycle: deliver a ready record, then grant a waiting request if the port is
+    /// free. `requests` are indexed by requester (cluster-major); `buffers` by cluster.
+    pub fn tick(
+        &mut self,
+        now: u64,
+        requests: &mut [Link<MemRequest>],
+        buffers: &mut [Link<PatchArrival>],
+    ) {
+        if now < self.port_free_at {
+            self.stats.busy_cycles += 1;
+        }
+        if let Some(f) = self.inflight.front() {
+            if f.ready <= now {
+                let b = &mut buffers[f.cluster as usize];
+                if b.can_push() {
+                    b.push(f.arrival);
+                    self.inflight.pop_front();
+                } else {
+                    self.stats.delivery_stall_cycles += 1;
+                }
+            }
+        }
+        if now < self.port_free_at {
+            return;
+        }
+        let n = requests.len();
+        let start = match self.policy {
+            ArbiterPolicy::RoundRobin => self.next,
+            ArbiterPolicy::FixedPriority => 0,
+        };
+        for k in 0..n {
+            let i = (start + k) % n;
+            if requests[i].peek().is_some() {
+                let r = requests[i].pop();
+                self.stats.grants += 1;
+                self.stats.wait_cycles += now - r.issued;
+                self.stats.words += self.words;
+                self.port_free_at = now + self.words;
+                self.inflight.push_back(InFlight {
+                    ready: now + self.latency + self.words,
+                    cluster: r.cluster,
+                    arrival: PatchArrival {
+                        patch: r.patch,
+                        ctu: r.ctu,
+                    },
+                });
+                self.last_grant = i as u32;
+                self.next = (i + 1) % n;
+                return;
+            }
+        }
+    }
+}

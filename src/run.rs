@@ -1,0 +1,193 @@
+//! `shellsim run`: partition, simulate the cycle-level machine, check every ray against the
+//! untimed fixed-point model, and report statistics (JSON, units in the names).
+
+use crate::error::{Error, Result};
+use crate::fixed::HostFixed;
+use crate::partition::{self, Config as PartitionConfig};
+use crate::trace::Tracer;
+use crate::Scene;
+use serde::Serialize;
+use shellsim_hw::ctu::CtuStats;
+use shellsim_hw::icu::IcuStats;
+use shellsim_hw::machine::{Machine, TickOrder};
+use shellsim_hw::machine_config::MachineConfig;
+use shellsim_hw::memory::MemoryStats;
+use shellsim_hw::patch_buffer::PatchBufferStats;
+use shellsim_hw::ray_buffer::RayBufferStats;
+use shellsim_hw::trace::Probe;
+use shellsim_hw::{Exceptions, FixedHit, RayRecord};
+use std::path::Path;
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct RunSpec {
+    pub source: u32,
+    /// Hi_Low_Ratio: N_high = ratio × 969.
+    pub ratio: usize,
+    pub cell: f64,
+    pub order: TickOrder,
+}
+
+/// Per-cluster statistics.
+#[derive(Clone, Debug, Serialize)]
+pub struct ClusterStats {
+    pub icu: IcuStats,
+    /// busy stage-cycles over all stage-cycles of this ICU.
+    pub pipeline_efficiency: f64,
+    pub ray_buffer: RayBufferStats,
+    pub patch_buffer: PatchBufferStats,
+    pub ctus: Vec<CtuStats>,
+}
+
+/// The statistics of a run.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunStats {
+    pub scene: String,
+    pub source: u32,
+    pub rays: usize,
+    pub cycles: u64,
+    /// Σ busy stage-cycles over Σ stage-cycles, all ICUs (the paper's time-space measure).
+    pub pipeline_efficiency: f64,
+    pub clusters: Vec<ClusterStats>,
+    pub memory: MemoryStats,
+    pub memory_requests: u64,
+    /// Port-busy cycles over all cycles.
+    pub memory_utilization: f64,
+    pub patch_loads: u64,
+    pub jobs: u64,
+    pub exceptions: Exceptions,
+    /// Rays whose nearest hit differs from the untimed fixed-point model's (must be 0).
+    pub mismatches_vs_fixed: u64,
+    /// Timing of the simulator (not part of the deterministic JSON).
+    #[serde(skip)]
+    pub sim_wall_s: f64,
+    #[serde(skip)]
+    pub sim_rate_hz: f64,
+}
+
+/// Everything a run produced.
+pub struct RunOutput {
+    pub stats: RunStats,
+    pub hits: Vec<Option<FixedHit>>,
+    pub reference: Vec<Option<FixedHit>>,
+}
+
+/// Partitions `scene`, runs the machine, checks each ray against the untimed model.
+pub fn run(
+    scene: &Scene,
+    file: &Path,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+    probe: Option<&mut dyn Probe>,
+) -> Result<RunOutput> {
+    let m = &cfg.machine;
+    let tracer = Tracer::new(scene, spec.cell)?;
+    let mut pcfg = PartitionConfig::paper(
+        spec.source,
+        m.clusters as usize,
+        m.ctus_per_cluster as usize,
+        spec.ratio,
+    );
+    pcfg.shell_radius = m.shell_radius;
+    pcfg.subshell_max = m.subshell_max_patches as usize;
+    pcfg.cell_size = spec.cell;
+    pcfg.validate(scene, file)?;
+    let part = partition::partition(scene, &tracer, &pcfg);
+    let host = HostFixed::new(scene, file, cfg.datapath, spec.cell)?;
+    let records: Vec<RayRecord> = part
+        .high_rays
+        .rays
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            host.ray(i as u32, r).ok_or_else(|| {
+                Error::input(
+                    file,
+                    format!("ray {i}"),
+                    "does not fit the datapath's formats",
+                )
+            })
+        })
+        .collect::<Result<_>>()?;
+    let k = m.ctus_per_cluster as usize;
+    let mut sectors = vec![vec![Vec::new(); k]; m.clusters as usize];
+    for s in &part.sectors {
+        sectors[s.section][s.sector] = s.rays.clone();
+    }
+    let start = std::time::Instant::now();
+    let mut machine = Machine::new(*cfg, &host.scene, &records, &sectors, spec.source);
+    machine
+        .run(spec.order, probe)
+        .map_err(|d| Error::Check(d.to_string()))?;
+    let wall = start.elapsed().as_secs_f64();
+    let hits = machine.hits();
+    let reference: Vec<Option<FixedHit>> = records
+        .iter()
+        .map(|r| {
+            let mut e = Exceptions::default();
+            host.scene.nearest_grid(r, Some(spec.source), &mut e).0
+        })
+        .collect();
+    let mismatches = hits.iter().zip(&reference).filter(|(a, b)| a != b).count() as u64;
+    let cycles = machine.cycle;
+    let mut busy = 0u64;
+    let mut total = 0u64;
+    let clusters: Vec<ClusterStats> = machine
+        .clusters
+        .iter()
+        .map(|cl| {
+            busy += cl.icu.stats.busy_stage_cycles;
+            total += cl.icu.stats.stage_cycles;
+            ClusterStats {
+                icu: cl.icu.stats,
+                pipeline_efficiency: ratio(
+                    cl.icu.stats.busy_stage_cycles,
+                    cl.icu.stats.stage_cycles,
+                ),
+                ray_buffer: cl.ray_buffer.stats,
+                patch_buffer: cl.patch_buffer.stats,
+                ctus: cl.ctus.iter().map(|c| c.stats).collect(),
+            }
+        })
+        .collect();
+    let jobs = clusters
+        .iter()
+        .flat_map(|c| &c.ctus)
+        .map(|c| c.jobs_issued)
+        .sum();
+    let requests = clusters
+        .iter()
+        .flat_map(|c| &c.ctus)
+        .map(|c| c.patch_requests)
+        .sum();
+    let stats = RunStats {
+        scene: scene.name.clone(),
+        source: spec.source,
+        rays: records.len(),
+        cycles,
+        pipeline_efficiency: ratio(busy, total),
+        clusters,
+        memory: machine.memory.stats,
+        memory_requests: requests,
+        memory_utilization: ratio(machine.memory.stats.busy_cycles, cycles),
+        patch_loads: machine.memory.stats.grants,
+        jobs,
+        exceptions: machine.exceptions(),
+        mismatches_vs_fixed: mismatches,
+        sim_wall_s: wall,
+        sim_rate_hz: cycles as f64 / wall.max(1e-9),
+    };
+    Ok(RunOutput {
+        stats,
+        hits,
+        reference,
+    })
+}
+
+fn ratio(a: u64, b: u64) -> f64 {
+    if b == 0 {
+        0.0
+    } else {
+        a as f64 / b as f64
+    }
+}
