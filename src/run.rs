@@ -58,6 +58,9 @@ pub struct RunStats {
     pub exceptions: Exceptions,
     /// Rays whose nearest hit differs from the untimed fixed-point model's (must be 0).
     pub mismatches_vs_fixed: u64,
+    /// Cycles the clock jumped over (not in the JSON, which must not depend on the jump).
+    #[serde(skip)]
+    pub skipped_cycles: u64,
     /// Timing of the simulator (not part of the deterministic JSON).
     #[serde(skip)]
     pub sim_wall_s: f64,
@@ -174,6 +177,7 @@ pub fn run(
         jobs,
         exceptions: machine.exceptions(),
         mismatches_vs_fixed: mismatches,
+        skipped_cycles: machine.skipped_cycles,
         sim_wall_s: wall,
         sim_rate_hz: cycles as f64 / wall.max(1e-9),
     };

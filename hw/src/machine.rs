@@ -76,6 +76,8 @@ pub struct Machine<'a> {
     /// Memory → each cluster's patch buffer (the buffer's store).
     pub stores: Vec<Link<PatchArrival>>,
     pub cycle: u64,
+    /// Cycles the clock jumped over (not in the statistics, which must not depend on it).
+    pub skipped_cycles: u64,
     order: Vec<Unit>,
     progress: u64,
     last_progress_cycle: u64,
@@ -155,6 +157,7 @@ impl<'a> Machine<'a> {
             scene,
             rays,
             cycle: 0,
+            skipped_cycles: 0,
             order,
             progress: 0,
             last_progress_cycle: 0,
@@ -315,6 +318,7 @@ impl<'a> Machine<'a> {
             }
         }
         self.last_progress_cycle += n;
+        self.skipped_cycles += n;
     }
 
     /// The watchdog's report: every unit's state.
