@@ -39,22 +39,43 @@ fn key_figures(s: &shellsim::run::RunStats) -> Value {
 
 fn golden(scene_file: &str, config: &str) {
     let scene = common::load(scene_file);
-    let cfg_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("hw/configs").join(config);
+    let cfg_path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("hw/configs")
+        .join(config);
     let cfg = shellsim::cli::machine_config(Some(&cfg_path)).unwrap();
-    let spec = RunSpec { source: 0, ratio: 1, cell: 0.05, order: TickOrder::Forward };
+    let spec = RunSpec {
+        source: 0,
+        ratio: 1,
+        cell: 0.05,
+        order: TickOrder::Forward,
+    };
     let out = run(&scene, Path::new(scene_file), &cfg, &spec, None).unwrap();
     assert_eq!(out.stats.mismatches_vs_fixed, 0);
     let text = serde_json::to_string_pretty(&key_figures(&out.stats)).unwrap() + "\n";
-    let name = format!("{}__{}.json", scene_file.trim_end_matches(".json"), config.trim_end_matches(".toml"));
-    let path: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden").join(&name);
+    let name = format!(
+        "{}__{}.json",
+        scene_file.trim_end_matches(".json"),
+        config.trim_end_matches(".toml")
+    );
+    let path: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/golden")
+        .join(&name);
     if std::env::var_os("UPDATE_GOLDEN").is_some() {
         std::fs::write(&path, &text).unwrap();
         return;
     }
-    let want = std::fs::read_to_string(&path)
-        .unwrap_or_else(|e| panic!("{}: {e}; create it with UPDATE_GOLDEN=1 cargo test --release --test golden", path.display()));
+    let want = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e}; create it with UPDATE_GOLDEN=1 cargo test --release --test golden",
+            path.display()
+        )
+    });
     if want != text {
-        let first = want.lines().zip(text.lines()).position(|(a, b)| a != b).unwrap_or(0);
+        let first = want
+            .lines()
+            .zip(text.lines())
+            .position(|(a, b)| a != b)
+            .unwrap_or(0);
         panic!(
             "{name} changed (first difference at line {}: golden {:?}, now {:?}).\n\
              If the change is intended: UPDATE_GOLDEN=1 cargo test --release --test golden, and review the diff.",
