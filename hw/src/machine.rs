@@ -236,7 +236,7 @@ impl<'a> Machine<'a> {
             cl.commit();
         }
         // The watchdog samples progress every 64 cycles (its resolution).
-        if now % 64 == 0 {
+        if now.is_multiple_of(64) {
             let p = self.activity();
             if p != self.progress {
                 self.progress = p;
