@@ -156,6 +156,16 @@ pub struct RunArgs {
     /// Write the statistics (and the resolved configuration) as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// Dynamic workload balancing: overrides the configuration's [balance] enabled.
+    #[arg(long, value_enum)]
+    pub balance: Option<OnOff>,
+}
+
+/// On or off.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OnOff {
+    On,
+    Off,
 }
 
 /// Reads a machine configuration (the built-in paper.toml when `path` is None).
@@ -387,7 +397,10 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Partition(a)) => crate::partition::cli::run(&a),
         Some(Command::Run(a)) => {
             let scene = Scene::load(&a.scene)?;
-            let cfg = machine_config(a.hw.as_deref())?;
+            let mut cfg = machine_config(a.hw.as_deref())?;
+            if let Some(b) = a.balance {
+                cfg.balance.enabled = b == OnOff::On;
+            }
             let spec = crate::run::RunSpec {
                 source: a.source,
                 ratio: a.ratio,

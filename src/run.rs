@@ -50,6 +50,8 @@ pub struct RunStats {
     pub pipeline_efficiency: f64,
     pub clusters: Vec<ClusterStats>,
     pub memory: MemoryStats,
+    /// Dynamic balancing (all zero when it is off).
+    pub balancer: shellsim_hw::balancer::BalancerStats,
     pub memory_requests: u64,
     /// Port-busy cycles over all cycles.
     pub memory_utilization: f64,
@@ -198,6 +200,7 @@ pub fn run(
         pipeline_efficiency: ratio(busy, total),
         clusters,
         memory: machine.memory.stats,
+        balancer: machine.balancer.stats,
         memory_requests: requests,
         memory_utilization: ratio(machine.memory.stats.busy_cycles, cycles),
         patch_loads: machine.memory.stats.grants,

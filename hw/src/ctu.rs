@@ -102,6 +102,8 @@ pub struct CtuPorts<'a> {
     pub arrivals: &'a mut Link<PatchArrival>,
     pub jobs: &'a mut Link<Job>,
     pub results: &'a mut Link<JobResult>,
+    /// Results of this CTU's jobs computed by other clusters (dynamic balancing).
+    pub remote_results: &'a mut Link<JobResult>,
 }
 
 /// A cell traversal unit.
@@ -235,16 +237,19 @@ impl Ctu {
     pub fn tick(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
         let mut busy = false;
         let mut stalled = false;
-        // Result port: one result per cycle; the compare stage of the datapath.
-        if io.results.peek().is_some() {
-            let r = io.results.pop();
-            let slot = &mut self.slots[r.slot as usize];
-            if let Some(t) = r.t {
-                compare(&mut slot.best, FixedHit { patch: r.patch, t });
+        // Result ports: one local and one remote result per cycle, each through a compare
+        // stage of the datapath (two results for one ray apply in port order).
+        for port in [&mut *io.results, &mut *io.remote_results] {
+            if port.peek().is_some() {
+                let r = port.pop();
+                let slot = &mut self.slots[r.slot as usize];
+                if let Some(t) = r.t {
+                    compare(&mut slot.best, FixedHit { patch: r.patch, t });
+                }
+                self.outstanding -= 1;
+                self.stats.results += 1;
+                busy = true;
             }
-            self.outstanding -= 1;
-            self.stats.results += 1;
-            busy = true;
         }
         // Job issuer: one job per cycle for the arrived patch, against every remaining ray.
         match self.issuing {
@@ -256,6 +261,7 @@ impl Ctu {
                         slot,
                         patch,
                         ctu: self.p.local,
+                        owner: self.p.cluster,
                     });
                     self.outstanding += 1;
                     self.stats.jobs_issued += 1;

@@ -7,7 +7,7 @@
 use crate::config::Formats;
 use crate::datapath::{self, Edges, Exceptions, Interpolated, RaySpace, Translated};
 use crate::link::Link;
-use crate::msg::{Job, JobResult};
+use crate::msg::{Job, JobResult, RemoteResult};
 use crate::record::{PatchRecord, RayRecord};
 
 /// What a stage register holds besides the job.
@@ -55,6 +55,8 @@ pub struct IcuStats {
     pub stage_cycles: u64,
     pub jobs_in: u64,
     pub results_out: u64,
+    /// Of those, results of other clusters' jobs sent home.
+    pub remote_results_out: u64,
     pub hits: u64,
 }
 
@@ -136,8 +138,10 @@ impl Icu {
     /// every stage advances, and a job enters from the ray buffer.
     pub fn tick(
         &mut self,
+        cluster: u16,
         input: &mut Link<Job>,
         results: &mut [Link<JobResult>],
+        remote: &mut Link<RemoteResult>,
         rays: &[RayRecord],
         patches: &[PatchRecord],
         f: &Formats,
@@ -150,19 +154,35 @@ impl Icu {
         }
         let last = (self.base + n - 1) % n;
         if let Some(reg) = &self.slots[last] {
-            let out = &mut results[reg.job.ctu as usize];
-            if !out.can_push() {
+            // A job from another cluster (dynamic balancing) sends its result home.
+            let local = reg.job.owner == cluster;
+            let ready = if local {
+                results[reg.job.ctu as usize].can_push()
+            } else {
+                remote.can_push()
+            };
+            if !ready {
                 self.stats.stalled_cycles += 1;
                 return;
             }
             let StageValue::Result(t) = reg.value else {
                 unreachable!("the last stage holds a result")
             };
-            out.push(JobResult {
+            let r = JobResult {
                 slot: reg.job.slot,
                 patch: reg.job.patch,
                 t,
-            });
+            };
+            if local {
+                results[reg.job.ctu as usize].push(r);
+            } else {
+                remote.push(RemoteResult {
+                    owner: reg.job.owner,
+                    ctu: reg.job.ctu,
+                    result: r,
+                });
+                self.stats.remote_results_out += 1;
+            }
             self.stats.results_out += 1;
             self.stats.hits += t.is_some() as u64;
         }

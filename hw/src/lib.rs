@@ -3,6 +3,7 @@
 //! clocked units of the machine (CTU, ICU, memory and arbiter, buffers, clusters).
 //! Like RTL: no scene files, no floats in the datapath.
 
+pub mod balancer;
 pub mod cluster;
 pub mod config;
 pub mod ctu;

@@ -2,8 +2,9 @@
 //! the last clock edge and whose writes are staged until the next one (two-phase commit).
 //!
 //! Handshake rules:
-//! 1. A producer may push at most one item per cycle, and only when `can_push()` — the link
-//!    held fewer than `capacity` items at the last edge (its registered `ready`).
+//! 1. A producer may push at most one item per cycle (a multi-port link: `ports` items), and
+//!    only when `can_push()` — the link held fewer than `capacity` items at the last edge,
+//!    counting those pushed this cycle (its registered `ready`).
 //! 2. A producer never waits for `ready` before raising `valid`: it decides from registered
 //!    state alone, so no combinational path runs from consumer to producer.
 //! 3. A consumer may pop at most one item per cycle, and only the item `peek()` shows — the
@@ -12,6 +13,8 @@
 //!    item is popped.
 //! 5. With capacity 2 (a skid buffer) a producer and a consumer that act every cycle move
 //!    one item per cycle: full throughput with no combinational path.
+//! 6. A splitter (dynamic balancing) may take up to `len − 1` items from the back at once:
+//!    never the front item, which the consumer may be popping in the same cycle.
 //!
 //! Because every read sees committed state and every write is staged, the order in which
 //! producer and consumer are ticked within a cycle cannot change any result.
@@ -23,8 +26,10 @@ use std::collections::VecDeque;
 pub struct Link<T> {
     q: VecDeque<T>,
     capacity: usize,
-    staged_push: Option<T>,
+    ports: usize,
+    staged_push: VecDeque<T>,
     staged_pop: bool,
+    staged_take_back: usize,
     /// Items transferred (popped) since the start.
     pub transfers: u64,
 }
@@ -32,12 +37,21 @@ pub struct Link<T> {
 impl<T: Clone> Link<T> {
     /// A link holding at most `capacity` items (at least 1).
     pub fn new(capacity: usize) -> Self {
+        Self::with_ports(capacity, 1)
+    }
+
+    /// A link whose producer side takes up to `ports` items per cycle (a ray buffer fed by
+    /// several CTUs at once).
+    pub fn with_ports(capacity: usize, ports: usize) -> Self {
         let capacity = capacity.max(1);
+        let ports = ports.max(1);
         Link {
-            q: VecDeque::with_capacity(capacity + 1),
+            q: VecDeque::with_capacity(capacity + ports),
             capacity,
-            staged_push: None,
+            ports,
+            staged_push: VecDeque::with_capacity(ports),
             staged_pop: false,
+            staged_take_back: 0,
             transfers: 0,
         }
     }
@@ -45,14 +59,17 @@ impl<T: Clone> Link<T> {
     /// Registered ready: room at the last edge (rule 1).
     #[inline]
     pub fn can_push(&self) -> bool {
-        self.q.len() < self.capacity && self.staged_push.is_none()
+        self.q.len() + self.staged_push.len() < self.capacity && self.staged_push.len() < self.ports
     }
 
     /// Stages a push (rule 1). Panics if the rules were broken — a model bug.
     #[inline]
     pub fn push(&mut self, x: T) {
-        assert!(self.can_push(), "push without ready or twice in a cycle");
-        self.staged_push = Some(x);
+        assert!(
+            self.can_push(),
+            "push without ready or more pushes than ports in a cycle"
+        );
+        self.staged_push.push_back(x);
     }
 
     /// Registered valid and data: the front at the last edge (rule 3).
@@ -73,15 +90,30 @@ impl<T: Clone> Link<T> {
         self.q.front().cloned().expect("pop without valid")
     }
 
+    /// Stages taking `k` items from the back (rule 6) and returns them, oldest first.
+    pub fn take_back(&mut self, k: usize) -> Vec<T> {
+        assert!(
+            self.staged_take_back == 0 && k < self.q.len().max(1),
+            "rule 6"
+        );
+        self.staged_take_back = k;
+        self.q.iter().skip(self.q.len() - k).cloned().collect()
+    }
+
     /// The clock edge (rule 4).
     #[inline]
     pub fn commit(&mut self) {
+        if self.staged_take_back > 0 {
+            let n = self.q.len() - self.staged_take_back;
+            self.q.truncate(n);
+            self.staged_take_back = 0;
+        }
         if self.staged_pop {
             self.q.pop_front();
             self.staged_pop = false;
             self.transfers += 1;
         }
-        if let Some(x) = self.staged_push.take() {
+        while let Some(x) = self.staged_push.pop_front() {
             self.q.push_back(x);
         }
     }
@@ -117,7 +149,7 @@ impl<T: Clone> Link<T> {
 
     /// True when nothing is staged (between cycles).
     pub fn is_settled(&self) -> bool {
-        self.staged_push.is_none() && !self.staged_pop
+        self.staged_push.is_empty() && !self.staged_pop && self.staged_take_back == 0
     }
 }
 

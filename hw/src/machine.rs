@@ -10,6 +10,7 @@
 //! accounts the skipped cycles as it would have spent them. Results and waveforms are the
 //! same with or without it.
 
+use crate::balancer::{Balancer, BalancerPorts};
 use crate::cluster::Cluster;
 use crate::ctu::{Ctu, CtuParams};
 use crate::datapath::{Exceptions, FixedHit};
@@ -18,7 +19,7 @@ use crate::link::Link;
 use crate::machine_config::MachineConfig;
 use crate::memory::Memory;
 use crate::model::FixedScene;
-use crate::msg::{MemRequest, PatchArrival};
+use crate::msg::{Job, JobResult, MemRequest, PatchArrival, RemoteResult, SplitOrder, WorkItem};
 use crate::ray_buffer::RayBuffer;
 use crate::record::{RayRecord, RecordSizes};
 use crate::trace::Probe;
@@ -36,6 +37,7 @@ pub enum TickOrder {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Unit {
     Memory,
+    Balancer,
     Ctu(usize, usize),
     Icu(usize),
     RayBuffer(usize),
@@ -75,6 +77,15 @@ pub struct Machine<'a> {
     pub requests: Vec<Link<MemRequest>>,
     /// Memory → each cluster's patch buffer (the buffer's store).
     pub stores: Vec<Link<PatchArrival>>,
+    /// Dynamic balancing: the balancer and, per cluster, its links.
+    pub balancer: Balancer,
+    pub orders: Vec<Link<SplitOrder>>,
+    pub items: Vec<Link<WorkItem>>,
+    pub net_in: Vec<Link<Job>>,
+    pub remote_out: Vec<Link<RemoteResult>>,
+    /// Per cluster, per CTU.
+    pub remote_in: Vec<Vec<Link<JobResult>>>,
+    occupancy: Vec<usize>,
     pub cycle: u64,
     /// Scratch for the per-cycle tick order (no allocation per cycle).
     scratch: Vec<Unit>,
@@ -133,13 +144,16 @@ impl<'a> Machine<'a> {
                 Cluster::new(
                     ctus,
                     Icu::new(cfg.divider_stages()),
-                    RayBuffer::new(cfg.machine.ray_buffer_capacity),
+                    RayBuffer::new(cfg.machine.ray_buffer_capacity, k + 1),
                 )
             })
             .collect();
         let n_req = clusters.len() * k;
         let words = RecordSizes::of(f).patch_words;
         let mut order = vec![Unit::Memory];
+        if cfg.balance.enabled {
+            order.push(Unit::Balancer);
+        }
         for c in 0..clusters.len() {
             order.push(Unit::PatchBuffer(c));
             for j in 0..k {
@@ -148,7 +162,17 @@ impl<'a> Machine<'a> {
             order.push(Unit::RayBuffer(c));
             order.push(Unit::Icu(c));
         }
+        let nc = clusters.len();
         Machine {
+            balancer: Balancer::new(cfg.balance, nc),
+            orders: (0..nc).map(|_| Link::new(1)).collect(),
+            items: (0..nc).map(|_| Link::new(1)).collect(),
+            net_in: (0..nc).map(|_| Link::new(2)).collect(),
+            remote_out: (0..nc).map(|_| Link::new(2)).collect(),
+            remote_in: (0..nc)
+                .map(|_| (0..k).map(|_| Link::new(2)).collect())
+                .collect(),
+            occupancy: vec![0; nc],
             memory: Memory::new(cfg.machine.arbiter, cfg.machine.memory_latency, words),
             requests: (0..n_req)
                 .map(|_| Link::new(cfg.machine.request_queue_capacity as usize))
@@ -176,6 +200,17 @@ impl<'a> Machine<'a> {
             && self.memory.inflight() == 0
             && self.requests.iter().all(Link::is_empty)
             && self.stores.iter().all(Link::is_empty)
+            && self.balance_links_empty()
+            && self.balancer.idle()
+    }
+
+    /// True when every link of the balancer is empty.
+    fn balance_links_empty(&self) -> bool {
+        self.orders.iter().all(Link::is_empty)
+            && self.items.iter().all(Link::is_empty)
+            && self.net_in.iter().all(Link::is_empty)
+            && self.remote_out.iter().all(Link::is_empty)
+            && self.remote_in.iter().flatten().all(Link::is_empty)
     }
 
     /// One clock cycle: tick every unit in `order`, then commit every link.
@@ -194,6 +229,21 @@ impl<'a> Machine<'a> {
         for &u in &units {
             match u {
                 Unit::Memory => self.memory.tick(now, &mut self.requests, &mut self.stores),
+                Unit::Balancer => {
+                    // Registered ray-buffer occupancies (committed state, same in any order).
+                    for (o, cl) in self.occupancy.iter_mut().zip(&self.clusters) {
+                        *o = cl.ray_buffer.queue.len();
+                    }
+                    let mut io = BalancerPorts {
+                        occupancy: &self.occupancy,
+                        orders: &mut self.orders,
+                        items: &mut self.items,
+                        to_ray_buffers: &mut self.net_in,
+                        from_icus: &mut self.remote_out,
+                        to_ctus: &mut self.remote_in,
+                    };
+                    self.balancer.tick(now, &mut io);
+                }
                 Unit::PatchBuffer(c) => {
                     let cl = &mut self.clusters[c];
                     cl.patch_buffer
@@ -206,18 +256,27 @@ impl<'a> Machine<'a> {
                         arrivals: &mut cl.arrival_links[j],
                         jobs: &mut cl.job_links[j],
                         results: &mut cl.result_links[j],
+                        remote_results: &mut self.remote_in[c][j],
                     };
                     cl.ctus[j].tick(now, &mut io, &self.scene.cells);
                 }
                 Unit::RayBuffer(c) => {
                     let cl = &mut self.clusters[c];
-                    cl.ray_buffer.tick(&mut cl.job_links);
+                    cl.ray_buffer.tick(
+                        c as u16,
+                        &mut cl.job_links,
+                        &mut self.net_in[c],
+                        &mut self.orders[c],
+                        &mut self.items[c],
+                    );
                 }
                 Unit::Icu(c) => {
                     let cl = &mut self.clusters[c];
                     cl.icu.tick(
+                        c as u16,
                         &mut cl.ray_buffer.queue,
                         &mut cl.result_links,
+                        &mut self.remote_out[c],
                         self.rays,
                         &self.scene.patches,
                         &f,
@@ -235,6 +294,21 @@ impl<'a> Machine<'a> {
         for cl in &mut self.clusters {
             cl.commit();
         }
+        for l in &mut self.orders {
+            l.commit();
+        }
+        for l in &mut self.items {
+            l.commit();
+        }
+        for l in &mut self.net_in {
+            l.commit();
+        }
+        for l in &mut self.remote_out {
+            l.commit();
+        }
+        for l in self.remote_in.iter_mut().flatten() {
+            l.commit();
+        }
         // The watchdog samples progress every 64 cycles (its resolution).
         if now.is_multiple_of(64) {
             let p = self.activity();
@@ -250,6 +324,7 @@ impl<'a> Machine<'a> {
         let mut a =
             self.memory.stats.grants + self.requests.iter().map(|l| l.transfers).sum::<u64>();
         a += self.stores.iter().map(|l| l.transfers).sum::<u64>();
+        a += self.balancer.stats.jobs_moved + self.balancer.stats.results_returned;
         for cl in &self.clusters {
             a += cl.icu.stats.jobs_in + cl.icu.stats.results_out;
             for c in &cl.ctus {
@@ -269,7 +344,18 @@ impl<'a> Machine<'a> {
                 .clusters
                 .iter()
                 .all(|c| c.links_empty() && c.ray_buffer.queue.is_empty() && c.icu.is_empty());
+        let balancer_acts = self.cfg.balance.enabled
+            && (!self.balance_links_empty()
+                || self.balancer.due(now)
+                || (0..self.clusters.len()).any(|c| {
+                    self.balancer.would_request(
+                        c,
+                        self.clusters[c].ray_buffer.queue.len(),
+                        self.net_in[c].is_empty(),
+                    )
+                }));
         if !links_empty
+            || balancer_acts
             || !self
                 .clusters
                 .iter()
@@ -279,6 +365,9 @@ impl<'a> Machine<'a> {
             return None;
         }
         let mut t = self.memory.timer(now);
+        if let Some(x) = self.balancer.timer(now) {
+            t = Some(t.map_or(x, |y: u64| y.min(x)));
+        }
         for c in self.clusters.iter().flat_map(|c| &c.ctus) {
             if let Some(x) = c.timer(now) {
                 t = Some(t.map_or(x, |y: u64| y.min(x)));
@@ -416,8 +505,41 @@ impl<'a> Machine<'a> {
         for (l, s) in self.requests.iter().zip(&sc.requests) {
             probe_link(p, s, l);
         }
+        if self.cfg.balance.enabled {
+            p.bits(
+                &sc.balancer,
+                "split_orders",
+                32,
+                self.balancer.stats.split_orders,
+            );
+            p.bits(
+                &sc.balancer,
+                "jobs_moved",
+                32,
+                self.balancer.stats.jobs_moved,
+            );
+            p.bits(&sc.balancer, "retries", 32, self.balancer.stats.retries);
+        }
         for (c, cl) in self.clusters.iter().enumerate() {
             let cs = &sc.clusters[c];
+            if self.cfg.balance.enabled {
+                p.bits(
+                    &cs.balance,
+                    "work_request",
+                    1,
+                    self.balancer.requesting(c) as u64,
+                );
+                p.bits(
+                    &cs.balance,
+                    "jobs_inbound",
+                    16,
+                    self.balancer.inbound(c) as u64,
+                );
+                probe_link(p, &cs.split_order, &self.orders[c]);
+                probe_link(p, &cs.work_item, &self.items[c]);
+                probe_link(p, &cs.net_in, &self.net_in[c]);
+                probe_link(p, &cs.remote_out, &self.remote_out[c]);
+            }
             probe_link(p, &cs.patch_buffer, &self.stores[c]);
             probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
             for (j, ctu) in cl.ctus.iter().enumerate() {
@@ -453,6 +575,7 @@ impl<'a> Machine<'a> {
 #[derive(Clone, Debug)]
 struct Scopes {
     memory: String,
+    balancer: String,
     arbiter: String,
     requests: Vec<String>,
     clusters: Vec<ClusterScopes>,
@@ -460,6 +583,11 @@ struct Scopes {
 
 #[derive(Clone, Debug)]
 struct ClusterScopes {
+    balance: String,
+    split_order: String,
+    work_item: String,
+    net_in: String,
+    remote_out: String,
     patch_buffer: String,
     ray_buffer: String,
     /// Per CTU: the CTU, its jobs, results and arrivals links.
@@ -473,6 +601,7 @@ impl Scopes {
         let k = m.cfg.machine.ctus_per_cluster as usize;
         Scopes {
             memory: "machine.memory".into(),
+            balancer: "machine.balancer".into(),
             arbiter: "machine.memory.arbiter".into(),
             requests: (0..m.requests.len())
                 .map(|i| format!("machine.memory.arbiter.req_{}_{}", i / k, i % k))
@@ -481,6 +610,11 @@ impl Scopes {
                 .map(|c| {
                     let base = format!("machine.cluster_{c}");
                     ClusterScopes {
+                        balance: format!("{base}.balance"),
+                        split_order: format!("{base}.balance.split_order"),
+                        work_item: format!("{base}.balance.work_item"),
+                        net_in: format!("{base}.balance.net_in"),
+                        remote_out: format!("{base}.balance.remote_out"),
                         patch_buffer: format!("{base}.patch_buffer"),
                         ray_buffer: format!("{base}.ray_buffer"),
                         ctus: (0..k)

@@ -47,11 +47,54 @@ pub struct MachineTable {
     pub watchdog_cycles: u64,
 }
 
+/// Which busy cluster the balancer asks for work.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum VictimPolicy {
+    /// The cluster with the most jobs waiting in its ray buffer (ties: lowest id).
+    MostPending,
+    /// The next cluster with work after the last victim.
+    RoundRobin,
+}
+
+/// The `[balance]` table: dynamic workload balancing between clusters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BalanceTable {
+    /// On or off.
+    pub enabled: bool,
+    /// Jobs in a work-item.
+    pub work_item_jobs: u32,
+    /// A request that found no work is retried after this many cycles.
+    pub sampling_interval: u32,
+    /// Inter-cluster link: cycles before the first word arrives.
+    pub link_latency: u32,
+    /// Inter-cluster link: words per cycle.
+    pub link_words_per_cycle: u32,
+    /// Which cluster gives work.
+    pub victim: VictimPolicy,
+}
+
+impl Default for BalanceTable {
+    fn default() -> Self {
+        BalanceTable {
+            enabled: false,
+            work_item_jobs: 16,
+            sampling_interval: 32,
+            link_latency: 4,
+            link_words_per_cycle: 1,
+            victim: VictimPolicy::MostPending,
+        }
+    }
+}
+
 /// A whole machine configuration file.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MachineConfig {
     pub machine: MachineTable,
+    #[serde(default)]
+    pub balance: BalanceTable,
     pub datapath: DatapathConfig,
 }
 
@@ -119,6 +162,38 @@ impl MachineConfig {
             1 << 24,
         )?;
         range("watchdog_cycles", m.watchdog_cycles, 10, 1 << 40)?;
+        let b = &self.balance;
+        let berr = |key: &str, what: String| ConfigError {
+            key: format!("balance.{key}"),
+            what,
+        };
+        if b.work_item_jobs < 1 || b.work_item_jobs > m.ray_buffer_capacity {
+            return Err(berr(
+                "work_item_jobs",
+                format!(
+                    "{} is outside 1..=ray_buffer_capacity ({})",
+                    b.work_item_jobs, m.ray_buffer_capacity
+                ),
+            ));
+        }
+        if !(1..=1 << 20).contains(&b.sampling_interval) {
+            return Err(berr(
+                "sampling_interval",
+                format!("{} is outside 1..=2^20", b.sampling_interval),
+            ));
+        }
+        if b.link_latency > 100_000 {
+            return Err(berr(
+                "link_latency",
+                format!("{} is absurdly large", b.link_latency),
+            ));
+        }
+        if !(1..=64).contains(&b.link_words_per_cycle) {
+            return Err(berr(
+                "link_words_per_cycle",
+                format!("{} is outside 1..=64", b.link_words_per_cycle),
+            ));
+        }
         if !(m.shell_radius.is_finite() && m.shell_radius > 0.0 && m.shell_radius <= 1e6) {
             return Err(err(
                 "shell_radius",

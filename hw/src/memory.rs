@@ -73,11 +73,12 @@ impl Memory {
         now < self.port_free_at
     }
 
-    /// The next cycle at which the memory acts on its own: the port frees or a record
-    /// becomes ready. `None` when it has nothing pending.
+    /// The next cycle (from `now` on) at which the memory acts on its own or its signals
+    /// change: the port frees or a record becomes ready. `None` when nothing is pending.
     pub fn timer(&self, now: u64) -> Option<u64> {
         let mut t: Option<u64> = None;
-        if self.port_free_at > now {
+        // The port freeing at `now` itself changes what the waveform shows this cycle.
+        if self.port_free_at >= now {
             t = Some(self.port_free_at);
         }
         if let Some(f) = self.inflight.front() {

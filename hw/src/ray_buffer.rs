@@ -1,14 +1,19 @@
 //! The ray buffer: a cluster's bounded queue of pending (ray, patch) jobs feeding its ICU.
-//! It takes at most one job per cycle from its CTUs' job links, round-robin among those
-//! with a job waiting.
+//! Each cycle it takes one job from each of its inputs — the CTUs' job links and the link
+//! bringing work-items from other clusters — while it has room, starting round-robin so no
+//! input is favoured when room runs short. Told to by the balancer, it splits a work-item off
+//! the back of its queue for a starving cluster.
 
 use crate::link::Link;
-use crate::msg::Job;
+use crate::msg::{Job, SplitOrder, WorkItem};
 
 /// Ray-buffer counters.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RayBufferStats {
     pub jobs_in: u64,
+    /// Work-items split off for other clusters, and their jobs.
+    pub work_items_given: u64,
+    pub jobs_given: u64,
     /// Σ occupancy over cycles (mean occupancy = this / cycles).
     pub occupancy_sum: u64,
     pub max_occupancy: u64,
@@ -24,32 +29,66 @@ pub struct RayBuffer {
 }
 
 impl RayBuffer {
-    /// A buffer of `capacity` jobs.
-    pub fn new(capacity: u32) -> Self {
+    /// A buffer of `capacity` jobs with `inputs` input ports (CTUs + the network).
+    pub fn new(capacity: u32, inputs: usize) -> Self {
         RayBuffer {
-            queue: Link::new(capacity as usize),
+            queue: Link::with_ports(capacity as usize, inputs),
             next: 0,
             stats: RayBufferStats::default(),
         }
     }
 
-    /// One clock cycle: move one job from the next CTU (round-robin) with one waiting.
-    pub fn tick(&mut self, inputs: &mut [Link<Job>]) {
+    /// One clock cycle: carry out a split order (at most `len − 1` jobs off the back, so
+    /// never the job the ICU may take), then move one job in from the next input
+    /// (round-robin) with one waiting. `cluster` is this buffer's cluster.
+    pub fn tick(
+        &mut self,
+        cluster: u16,
+        inputs: &mut [Link<Job>],
+        from_network: &mut Link<Job>,
+        orders: &mut Link<SplitOrder>,
+        out: &mut Link<WorkItem>,
+    ) {
         let occ = self.queue.len() as u64;
         self.stats.occupancy_sum += occ;
         self.stats.max_occupancy = self.stats.max_occupancy.max(occ);
-        if !self.queue.can_push() {
-            return;
+        if orders.peek().is_some() && out.can_push() {
+            let o = orders.pop();
+            let k = (o.jobs as usize).min(self.queue.len().saturating_sub(1));
+            // Always answer: an empty work-item tells the balancer there was nothing to give.
+            let jobs = if k > 0 {
+                self.queue.take_back(k)
+            } else {
+                Vec::new()
+            };
+            self.stats.work_items_given += (k > 0) as u64;
+            self.stats.jobs_given += k as u64;
+            out.push(WorkItem {
+                from: cluster,
+                to: o.thief,
+                jobs,
+            });
         }
-        let n = inputs.len();
+        // Inputs 0..K are the CTUs, K the network.
+        let n = inputs.len() + 1;
+        // The starting input turns only when a job moves (an idle cycle changes no state,
+        // so the machine's cycle jump cannot change the order).
+        let start = self.next;
         for k in 0..n {
-            let i = (self.next + k) % n;
-            if inputs[i].peek().is_some() {
-                let job = inputs[i].pop();
+            if !self.queue.can_push() {
+                break;
+            }
+            let i = (start + k) % n;
+            let link = if i < inputs.len() {
+                &mut inputs[i]
+            } else {
+                &mut *from_network
+            };
+            if link.peek().is_some() {
+                let job = link.pop();
                 self.queue.push(job);
                 self.stats.jobs_in += 1;
                 self.next = (i + 1) % n;
-                return;
             }
         }
     }
