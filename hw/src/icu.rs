@@ -37,6 +37,18 @@ impl StageValue {
     }
 }
 
+/// The links an ICU reads and drives.
+pub struct IcuPorts<'a> {
+    /// This ICU's cluster (results of its own jobs stay local).
+    pub cluster: u16,
+    /// From the ray buffer.
+    pub input: &'a mut Link<Job>,
+    /// To each CTU of the cluster.
+    pub results: &'a mut [Link<JobResult>],
+    /// Results of other clusters' jobs, back over the inter-cluster link.
+    pub remote: &'a mut Link<RemoteResult>,
+}
+
 /// One stage register.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct StageReg {
@@ -138,14 +150,18 @@ impl Icu {
     /// every stage advances, and a job enters from the ray buffer.
     pub fn tick(
         &mut self,
-        cluster: u16,
-        input: &mut Link<Job>,
-        results: &mut [Link<JobResult>],
-        remote: &mut Link<RemoteResult>,
+        io: &mut IcuPorts,
         rays: &[RayRecord],
         patches: &[PatchRecord],
         f: &Formats,
     ) {
+        let IcuPorts {
+            cluster,
+            input,
+            results,
+            remote,
+        } = io;
+        let cluster = *cluster;
         let n = self.slots.len();
         self.stats.stage_cycles += n as u64;
         if self.count == 0 && input.peek().is_none() {

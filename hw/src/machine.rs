@@ -272,15 +272,13 @@ impl<'a> Machine<'a> {
                 }
                 Unit::Icu(c) => {
                     let cl = &mut self.clusters[c];
-                    cl.icu.tick(
-                        c as u16,
-                        &mut cl.ray_buffer.queue,
-                        &mut cl.result_links,
-                        &mut self.remote_out[c],
-                        self.rays,
-                        &self.scene.patches,
-                        &f,
-                    );
+                    let mut io = crate::icu::IcuPorts {
+                        cluster: c as u16,
+                        input: &mut cl.ray_buffer.queue,
+                        results: &mut cl.result_links,
+                        remote: &mut self.remote_out[c],
+                    };
+                    cl.icu.tick(&mut io, self.rays, &self.scene.patches, &f);
                 }
             }
         }
