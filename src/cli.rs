@@ -408,6 +408,14 @@ pub fn run(cli: Cli) -> Result<()> {
             };
             // The VCD streams into a temporary file; an error drops the writer, which removes
             // it, so a failed run leaves no waveform behind.
+            if let Some(p) = &a.vcd {
+                if crate::gtkw::path_for(p) == *p {
+                    return Err(Error::Usage(format!(
+                        "--vcd {}: the GTKWave save file would overwrite it; name it *.vcd",
+                        p.display()
+                    )));
+                }
+            }
             let mut vcd = match &a.vcd {
                 Some(p) => Some(crate::vcd_out::VcdWriter::create(
                     p,

@@ -199,6 +199,36 @@ enum Val {
     Text(String),
 }
 
+/// A value as a probe call reports it (borrowed, so an unchanged string costs no allocation).
+#[derive(Clone, Copy, Debug)]
+enum ValRef<'a> {
+    Bits(u64),
+    Text(&'a str),
+}
+
+impl Val {
+    /// True when `v` is the same value.
+    fn equals(&self, v: ValRef) -> bool {
+        match (self, v) {
+            (Val::Bits(a), ValRef::Bits(b)) => *a == b,
+            (Val::Text(a), ValRef::Text(b)) => a == b,
+            _ => false,
+        }
+    }
+
+    /// Takes the value `v`, reusing a string's buffer.
+    fn set(&mut self, v: ValRef) {
+        match (&mut *self, v) {
+            (Val::Text(a), ValRef::Text(b)) => {
+                a.clear();
+                a.push_str(b);
+            }
+            (_, ValRef::Bits(b)) => *self = Val::Bits(b),
+            (_, ValRef::Text(b)) => *self = Val::Text(b.to_string()),
+        }
+    }
+}
+
 /// One position in a sample: the k-th probe call of every sample reports the same signal.
 struct Slot {
     scope: String,
@@ -319,7 +349,7 @@ impl VcdWriter {
     }
 
     /// One probe call: checks the layout (first sample: adds the slot) and stages the value.
-    fn report(&mut self, scope: &str, name: &str, width: u32, kind: SignalKind, v: Val) {
+    fn report(&mut self, scope: &str, name: &str, width: u32, kind: SignalKind, v: ValRef) {
         if self.error.is_some() {
             return;
         }
@@ -349,7 +379,10 @@ impl VcdWriter {
                 kind,
                 id: None,
                 id_text: String::new(),
-                value: v,
+                value: match v {
+                    ValRef::Bits(b) => Val::Bits(b),
+                    ValRef::Text(t) => Val::Text(t.to_string()),
+                },
                 dirty: true,
             });
             return;
@@ -368,8 +401,8 @@ impl VcdWriter {
             self.fail(msg);
             return;
         }
-        if s.value != v {
-            s.value = v;
+        if !s.value.equals(v) {
+            s.value.set(v);
             if !s.dirty && s.id.is_some() {
                 s.dirty = true;
                 self.dirty.push(i);
@@ -521,26 +554,35 @@ impl Probe for VcdWriter {
 
     fn bits(&mut self, scope: &str, name: &str, width: u32, value: u64) {
         let v = value & mask(width);
-        self.report(scope, name, width, SignalKind::Bits, Val::Bits(v));
+        self.report(scope, name, width, SignalKind::Bits, ValRef::Bits(v));
     }
 
     fn text(&mut self, scope: &str, name: &str, value: &str) {
         // VCD string values are single tokens: whitespace becomes '_', empty becomes "-".
-        let v = if value.is_empty() {
-            "-".to_string()
-        } else {
+        let v: std::borrow::Cow<str> = if value.is_empty() {
+            "-".into()
+        } else if value.contains(char::is_whitespace) {
             value
                 .chars()
                 .map(|c| if c.is_whitespace() { '_' } else { c })
-                .collect()
+                .collect::<String>()
+                .into()
+        } else {
+            value.into()
         };
-        self.report(scope, name, 1, SignalKind::Text, Val::Text(v));
+        self.report(scope, name, 1, SignalKind::Text, ValRef::Text(&v));
     }
 
     fn fixed(&mut self, scope: &str, name: &str, width: u32, frac: u32, raw: i64) {
         // Two's complement in `width` bits.
         let v = (raw as u64) & mask(width);
-        self.report(scope, name, width, SignalKind::Fixed { frac }, Val::Bits(v));
+        self.report(
+            scope,
+            name,
+            width,
+            SignalKind::Fixed { frac },
+            ValRef::Bits(v),
+        );
     }
 }
 
