@@ -304,20 +304,40 @@ impl VcdWriter {
         })
     }
 
-    /// Ends the last sample, flushes, and renames the file into place.
+    /// Ends the last sample, flushes, and renames the file into place. On an error the
+    /// temporary file is removed and nothing appears at the target path.
     pub fn finish(mut self) -> Result<VcdSummary> {
         self.end_sample();
+        if !self.header_done && self.error.is_none() {
+            // No sample at all: still a valid (empty) VCD.
+            if let Err(e) = self.write_header() {
+                self.fail(format!("writing: {e}"));
+            }
+        }
         if let Some(e) = self.error.take() {
+            // Dropping `self` removes the temporary file.
             return Err(Error::Check(format!("{}: {e}", self.path.display())));
         }
         let mut w = self.out.take().expect("finish runs once");
-        let io_err = |e| Error::io(&self.tmp, e);
-        w.flush().map_err(io_err)?;
-        let f = w.writer().get_ref();
-        f.sync_all().map_err(io_err)?;
-        let bytes = f.metadata().map_err(io_err)?.len();
+        let done = (|| -> io::Result<u64> {
+            w.flush()?;
+            let f = w.writer().get_ref();
+            f.sync_all()?;
+            let bytes = f.metadata()?.len();
+            Ok(bytes)
+        })();
         drop(w);
-        std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))?;
+        let bytes = match done {
+            Ok(b) => b,
+            Err(e) => {
+                let _ = std::fs::remove_file(&self.tmp);
+                return Err(Error::io(&self.tmp, e));
+            }
+        };
+        if let Err(e) = std::fs::rename(&self.tmp, &self.path) {
+            let _ = std::fs::remove_file(&self.tmp);
+            return Err(Error::io(&self.path, e));
+        }
         let signals = self
             .declared
             .iter()
@@ -752,6 +772,19 @@ mod tests {
         let text = std::fs::read_to_string(&p).unwrap();
         let body = text.split("$enddefinitions $end\n").nth(1).unwrap();
         assert_eq!(body, "#4\n$dumpvars\nb10 !\n$end\n#6\nb11 !\n#7\nb100 !\n");
+    }
+
+    #[test]
+    fn no_sample_gives_a_valid_empty_vcd() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("e.vcd");
+        let s = VcdWriter::create(&p, VcdOptions::default())
+            .unwrap()
+            .finish()
+            .unwrap();
+        assert!(s.signals.is_empty());
+        let text = std::fs::read_to_string(&p).unwrap();
+        assert!(text.ends_with("$enddefinitions $end\n"), "{text}");
     }
 
     #[test]
