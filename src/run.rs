@@ -58,6 +58,9 @@ pub struct RunStats {
     pub exceptions: Exceptions,
     /// Rays whose nearest hit differs from the untimed fixed-point model's (must be 0).
     pub mismatches_vs_fixed: u64,
+    /// Cycles the clock jumped over (not in the JSON, which must not depend on the jump).
+    #[serde(skip)]
+    pub skipped_cycles: u64,
     /// Timing of the simulator (not part of the deterministic JSON).
     #[serde(skip)]
     pub sim_wall_s: f64,
@@ -72,14 +75,21 @@ pub struct RunOutput {
     pub reference: Vec<Option<FixedHit>>,
 }
 
-/// Partitions `scene`, runs the machine, checks each ray against the untimed model.
-pub fn run(
+/// The machine's inputs: the scene in hardware form, the ray records, the sectors.
+pub struct Prepared {
+    pub host: HostFixed,
+    pub records: Vec<RayRecord>,
+    /// `sectors[cluster][ctu]`: the sector's ray ids, ascending.
+    pub sectors: Vec<Vec<Vec<u32>>>,
+}
+
+/// Partitions `scene` and converts it and the high-resolution rays for the machine.
+pub fn prepare(
     scene: &Scene,
     file: &Path,
     cfg: &MachineConfig,
     spec: &RunSpec,
-    probe: Option<&mut dyn Probe>,
-) -> Result<RunOutput> {
+) -> Result<Prepared> {
     let m = &cfg.machine;
     let tracer = Tracer::new(scene, spec.cell)?;
     let mut pcfg = PartitionConfig::paper(
@@ -114,6 +124,26 @@ pub fn run(
     for s in &part.sectors {
         sectors[s.section][s.sector] = s.rays.clone();
     }
+    Ok(Prepared {
+        host,
+        records,
+        sectors,
+    })
+}
+
+/// Partitions `scene`, runs the machine, checks each ray against the untimed model.
+pub fn run(
+    scene: &Scene,
+    file: &Path,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+    probe: Option<&mut dyn Probe>,
+) -> Result<RunOutput> {
+    let Prepared {
+        host,
+        records,
+        sectors,
+    } = prepare(scene, file, cfg, spec)?;
     let start = std::time::Instant::now();
     let mut machine = Machine::new(*cfg, &host.scene, &records, &sectors, spec.source);
     machine
@@ -174,6 +204,7 @@ pub fn run(
         jobs,
         exceptions: machine.exceptions(),
         mismatches_vs_fixed: mismatches,
+        skipped_cycles: machine.skipped_cycles,
         sim_wall_s: wall,
         sim_rate_hz: cycles as f64 / wall.max(1e-9),
     };

@@ -58,11 +58,14 @@ pub struct IcuStats {
     pub hits: u64,
 }
 
-/// The ICU.
+/// The ICU. The stage registers sit in a ring: logical stage k is slot (base + k) mod S, so a
+/// pipeline advance moves `base` instead of copying every register.
 #[derive(Clone, Debug)]
 pub struct Icu {
-    pub stages: Vec<Option<StageReg>>,
-    divider_stages: usize,
+    slots: Vec<Option<StageReg>>,
+    base: usize,
+    /// Registers holding a job.
+    count: usize,
     pub exceptions: Exceptions,
     pub stats: IcuStats,
 }
@@ -71,8 +74,9 @@ impl Icu {
     /// A pipeline of 4 + `divider_stages` + 1 stages.
     pub fn new(divider_stages: u32) -> Self {
         Icu {
-            stages: vec![None; 4 + divider_stages as usize + 1],
-            divider_stages: divider_stages as usize,
+            slots: vec![None; 4 + divider_stages as usize + 1],
+            base: 0,
+            count: 0,
             exceptions: Exceptions::default(),
             stats: IcuStats::default(),
         }
@@ -80,44 +84,52 @@ impl Icu {
 
     /// Pipeline depth.
     pub fn depth(&self) -> usize {
-        self.stages.len()
+        self.slots.len()
+    }
+
+    /// Stage `k`'s register (0 = translate, depth − 1 = result).
+    #[inline]
+    pub fn stage(&self, k: usize) -> Option<&StageReg> {
+        self.slots[(self.base + k) % self.slots.len()].as_ref()
+    }
+
+    /// Stage registers holding a job.
+    pub fn occupied(&self) -> usize {
+        self.count
     }
 
     /// True when no stage holds a job.
     pub fn is_empty(&self) -> bool {
-        self.stages.iter().all(Option::is_none)
+        self.count == 0
     }
 
     /// Accounts `n` cycles skipped by the machine's cycle jump (the ICU is empty then).
     pub fn skip(&mut self, n: u64) {
         self.stats.idle_cycles += n;
-        self.stats.stage_cycles += n * self.stages.len() as u64;
+        self.stats.stage_cycles += n * self.slots.len() as u64;
     }
 
-    /// The value the next stage computes from a stage register's value (stage `k` → `k+1`).
+    /// Turns stage `k`'s value into stage `k + 1`'s, in place (no copy of the register).
+    #[inline]
     fn advance(
-        &self,
+        last: usize,
         k: usize,
-        v: StageValue,
+        v: &mut StageValue,
         ray: &RayRecord,
         f: &Formats,
         exc: &mut Exceptions,
-    ) -> StageValue {
-        let last_div = 3 + self.divider_stages;
-        match v {
+    ) {
+        *v = match *v {
             StageValue::Translated(t) => StageValue::Sheared(datapath::shear(ray, &t, f)),
             StageValue::Sheared(s) => StageValue::Edged(s, datapath::edges(&s)),
             StageValue::Edged(s, e) => StageValue::Interpolated(datapath::interpolate(&s, &e)),
-            StageValue::Interpolated(q) | StageValue::Dividing(q) => {
-                // Stages 4..=3+D are the divider; the quotient appears at the last.
-                if k + 1 == last_div + 1 {
-                    StageValue::Result(datapath::divide(&q, f, exc))
-                } else {
-                    StageValue::Dividing(q)
-                }
+            // The divider's stages carry the fraction; the quotient appears in the last stage.
+            StageValue::Interpolated(q) | StageValue::Dividing(q) if k + 1 == last => {
+                StageValue::Result(datapath::divide(&q, f, exc))
             }
-            StageValue::Result(r) => StageValue::Result(r),
-        }
+            StageValue::Interpolated(q) => StageValue::Dividing(q),
+            StageValue::Dividing(_) | StageValue::Result(_) => return,
+        };
     }
 
     /// One clock cycle: the result at the end leaves (if its CTU's result link is ready),
@@ -130,35 +142,52 @@ impl Icu {
         patches: &[PatchRecord],
         f: &Formats,
     ) {
-        let n = self.stages.len();
+        let n = self.slots.len();
         self.stats.stage_cycles += n as u64;
-        if let Some(last) = &self.stages[n - 1] {
-            let out = &mut results[last.job.ctu as usize];
+        if self.count == 0 && input.peek().is_none() {
+            self.stats.idle_cycles += 1;
+            return;
+        }
+        let last = (self.base + n - 1) % n;
+        if let Some(reg) = &self.slots[last] {
+            let out = &mut results[reg.job.ctu as usize];
             if !out.can_push() {
                 self.stats.stalled_cycles += 1;
                 return;
             }
-            let StageValue::Result(t) = last.value else {
+            let StageValue::Result(t) = reg.value else {
                 unreachable!("the last stage holds a result")
             };
             out.push(JobResult {
-                slot: last.job.slot,
-                patch: last.job.patch,
+                slot: reg.job.slot,
+                patch: reg.job.patch,
                 t,
             });
             self.stats.results_out += 1;
             self.stats.hits += t.is_some() as u64;
         }
-        let valid = self.stages.iter().filter(|s| s.is_some()).count() as u64;
-        // Advance from the end so each register is read before it is overwritten.
-        let mut exc = self.exceptions;
-        for k in (0..n - 1).rev() {
-            self.stages[k + 1] = self.stages[k].map(|r| StageReg {
-                job: r.job,
-                value: self.advance(k, r.value, &rays[r.job.ray as usize], f, &mut exc),
-            });
+        // Busy stage-cycles: the registers that held a job this cycle (the leaving one too).
+        let valid = self.count as u64;
+        if self.slots[last].take().is_some() {
+            self.count -= 1;
         }
-        self.stages[0] = None;
+        // Each register computes the next stage's value in place; then the ring turns so
+        // that logical stage k becomes k + 1 and the emptied last slot becomes stage 0.
+        let mut exc = self.exceptions;
+        for k in 0..n - 1 {
+            let i = (self.base + k) % n;
+            if let Some(r) = &mut self.slots[i] {
+                Self::advance(
+                    n - 1,
+                    k,
+                    &mut r.value,
+                    &rays[r.job.ray as usize],
+                    f,
+                    &mut exc,
+                );
+            }
+        }
+        self.base = last;
         if input.peek().is_some() {
             let job = input.pop();
             let t = datapath::translate(
@@ -167,14 +196,15 @@ impl Icu {
                 f,
                 &mut exc,
             );
-            self.stages[0] = Some(StageReg {
+            self.slots[self.base] = Some(StageReg {
                 job,
                 value: StageValue::Translated(t),
             });
+            self.count += 1;
             self.stats.jobs_in += 1;
         }
         self.exceptions = exc;
-        if valid > 0 || self.stages[0].is_some() {
+        if valid > 0 || self.slots[self.base].is_some() {
             self.stats.busy_cycles += 1;
             self.stats.busy_stage_cycles += valid;
         } else {

@@ -76,6 +76,12 @@ pub struct Machine<'a> {
     /// Memory → each cluster's patch buffer (the buffer's store).
     pub stores: Vec<Link<PatchArrival>>,
     pub cycle: u64,
+    /// Scratch for the per-cycle tick order (no allocation per cycle).
+    scratch: Vec<Unit>,
+    /// Scope names for probes, built on the first probe.
+    scopes: Option<Scopes>,
+    /// Cycles the clock jumped over (not in the statistics, which must not depend on it).
+    pub skipped_cycles: u64,
     order: Vec<Unit>,
     progress: u64,
     last_progress_cycle: u64,
@@ -155,6 +161,9 @@ impl<'a> Machine<'a> {
             scene,
             rays,
             cycle: 0,
+            scratch: Vec::with_capacity(order.len()),
+            scopes: None,
+            skipped_cycles: 0,
             order,
             progress: 0,
             last_progress_cycle: 0,
@@ -182,7 +191,7 @@ impl<'a> Machine<'a> {
         }
         let k = self.cfg.machine.ctus_per_cluster as usize;
         let f = self.scene.formats;
-        for u in units {
+        for &u in &units {
             match u {
                 Unit::Memory => self.memory.tick(now, &mut self.requests, &mut self.stores),
                 Unit::PatchBuffer(c) => {
@@ -216,6 +225,7 @@ impl<'a> Machine<'a> {
                 }
             }
         }
+        self.scratch = units;
         for l in &mut self.requests {
             l.commit();
         }
@@ -225,10 +235,13 @@ impl<'a> Machine<'a> {
         for cl in &mut self.clusters {
             cl.commit();
         }
-        let p = self.activity();
-        if p != self.progress {
-            self.progress = p;
-            self.last_progress_cycle = now;
+        // The watchdog samples progress every 64 cycles (its resolution).
+        if now.is_multiple_of(64) {
+            let p = self.activity();
+            if p != self.progress {
+                self.progress = p;
+                self.last_progress_cycle = now;
+            }
         }
     }
 
@@ -315,6 +328,7 @@ impl<'a> Machine<'a> {
             }
         }
         self.last_progress_cycle += n;
+        self.skipped_cycles += n;
     }
 
     /// The watchdog's report: every unit's state.
@@ -332,7 +346,7 @@ impl<'a> Machine<'a> {
         for (i, cl) in self.clusters.iter().enumerate() {
             report.push(format!(
                 "cluster {i}: icu {} of {} stages full, ray buffer {}/{}, patch buffer {}",
-                cl.icu.stages.iter().filter(|s| s.is_some()).count(),
+                cl.icu.occupied(),
                 cl.icu.depth(),
                 cl.ray_buffer.queue.len(),
                 cl.ray_buffer.queue.capacity(),
@@ -375,65 +389,118 @@ impl<'a> Machine<'a> {
         e
     }
 
-    /// Reports every unit's signals to `p`.
-    pub fn probe(&self, p: &mut dyn Probe) {
+    /// Reports every unit's signals to `p` (scope names are built once, not per cycle).
+    pub fn probe(&mut self, p: &mut dyn Probe) {
+        if self.scopes.is_none() {
+            self.scopes = Some(Scopes::new(self));
+        }
+        let sc = self.scopes.as_ref().expect("built above");
         let now = self.cycle;
         p.cycle(now);
         let t_frac = self.scene.formats.t.frac_bits;
         let t_bits = self.scene.formats.t.bits();
         p.bits(
-            "machine.memory",
+            &sc.memory,
             "port_busy",
             1,
             self.memory.port_busy(now) as u64,
         );
+        p.bits(&sc.memory, "in_flight", 16, self.memory.inflight() as u64);
+        p.bits(&sc.memory, "grants", 32, self.memory.stats.grants);
         p.bits(
-            "machine.memory",
-            "in_flight",
-            16,
-            self.memory.inflight() as u64,
-        );
-        p.bits("machine.memory", "grants", 32, self.memory.stats.grants);
-        p.bits(
-            "machine.memory.arbiter",
+            &sc.arbiter,
             "last_grant",
             16,
             self.memory.last_grant.min(0xFFFF) as u64,
         );
-        let k = self.cfg.machine.ctus_per_cluster as usize;
-        for (i, l) in self.requests.iter().enumerate() {
-            let s = format!("machine.memory.arbiter.req_{}_{}", i / k, i % k);
-            probe_link(p, &s, l);
+        for (l, s) in self.requests.iter().zip(&sc.requests) {
+            probe_link(p, s, l);
         }
         for (c, cl) in self.clusters.iter().enumerate() {
-            let base = format!("machine.cluster_{c}");
-            probe_link(p, &format!("{base}.patch_buffer"), &self.stores[c]);
-            probe_link(p, &format!("{base}.ray_buffer"), &cl.ray_buffer.queue);
+            let cs = &sc.clusters[c];
+            probe_link(p, &cs.patch_buffer, &self.stores[c]);
+            probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
             for (j, ctu) in cl.ctus.iter().enumerate() {
-                let s = format!("{base}.ctu_{j}");
-                p.text(&s, "state", ctu.state.name());
-                p.bits(&s, "shell", 16, ctu.shell() as u64);
-                p.bits(&s, "remaining_rays", 32, ctu.remaining() as u64);
-                p.bits(&s, "outstanding_jobs", 32, ctu.outstanding());
-                p.bits(&s, "pending_loads", 16, ctu.pending_loads() as u64);
-                p.bits(&s, "jobs_issued", 32, ctu.stats.jobs_issued);
-                probe_link(p, &format!("{s}.jobs"), &cl.job_links[j]);
-                probe_link(p, &format!("{s}.results"), &cl.result_links[j]);
-                probe_link(p, &format!("{s}.arrivals"), &cl.arrival_links[j]);
+                let s = &cs.ctus[j];
+                p.text(&s[0], "state", ctu.state.name());
+                p.bits(&s[0], "shell", 16, ctu.shell() as u64);
+                p.bits(&s[0], "remaining_rays", 32, ctu.remaining() as u64);
+                p.bits(&s[0], "outstanding_jobs", 32, ctu.outstanding());
+                p.bits(&s[0], "pending_loads", 16, ctu.pending_loads() as u64);
+                p.bits(&s[0], "jobs_issued", 32, ctu.stats.jobs_issued);
+                probe_link(p, &s[1], &cl.job_links[j]);
+                probe_link(p, &s[2], &cl.result_links[j]);
+                probe_link(p, &s[3], &cl.arrival_links[j]);
             }
-            let s = format!("{base}.icu");
-            p.bits(&s, "jobs_in", 32, cl.icu.stats.jobs_in);
-            for (n, st) in cl.icu.stages.iter().enumerate() {
-                let ss = format!("{s}.stage_{n}");
-                p.bits(&ss, "valid", 1, st.is_some() as u64);
-                p.bits(&ss, "ray", 32, st.map_or(0, |r| r.job.ray as u64));
-                p.bits(&ss, "patch", 24, st.map_or(0, |r| r.job.patch as u64));
-                if let Some(crate::icu::StageValue::Result(Some(t))) = st.map(|r| r.value) {
-                    p.fixed(&ss, "t", t_bits, t_frac, t);
-                } else {
-                    p.fixed(&ss, "t", t_bits, t_frac, 0);
-                }
+            p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
+            for n in 0..cl.icu.depth() {
+                let st = cl.icu.stage(n).copied();
+                let ss = &cs.stages[n];
+                p.bits(ss, "valid", 1, st.is_some() as u64);
+                p.bits(ss, "ray", 32, st.map_or(0, |r| r.job.ray as u64));
+                p.bits(ss, "patch", 24, st.map_or(0, |r| r.job.patch as u64));
+                let t = match st.map(|r| r.value) {
+                    Some(crate::icu::StageValue::Result(Some(t))) => t,
+                    _ => 0,
+                };
+                p.fixed(ss, "t", t_bits, t_frac, t);
             }
+        }
+    }
+}
+
+/// The dotted scope names of every unit, built once per machine.
+#[derive(Clone, Debug)]
+struct Scopes {
+    memory: String,
+    arbiter: String,
+    requests: Vec<String>,
+    clusters: Vec<ClusterScopes>,
+}
+
+#[derive(Clone, Debug)]
+struct ClusterScopes {
+    patch_buffer: String,
+    ray_buffer: String,
+    /// Per CTU: the CTU, its jobs, results and arrivals links.
+    ctus: Vec<[String; 4]>,
+    icu: String,
+    stages: Vec<String>,
+}
+
+impl Scopes {
+    fn new(m: &Machine) -> Self {
+        let k = m.cfg.machine.ctus_per_cluster as usize;
+        Scopes {
+            memory: "machine.memory".into(),
+            arbiter: "machine.memory.arbiter".into(),
+            requests: (0..m.requests.len())
+                .map(|i| format!("machine.memory.arbiter.req_{}_{}", i / k, i % k))
+                .collect(),
+            clusters: (0..m.clusters.len())
+                .map(|c| {
+                    let base = format!("machine.cluster_{c}");
+                    ClusterScopes {
+                        patch_buffer: format!("{base}.patch_buffer"),
+                        ray_buffer: format!("{base}.ray_buffer"),
+                        ctus: (0..k)
+                            .map(|j| {
+                                let s = format!("{base}.ctu_{j}");
+                                [
+                                    s.clone(),
+                                    format!("{s}.jobs"),
+                                    format!("{s}.results"),
+                                    format!("{s}.arrivals"),
+                                ]
+                            })
+                            .collect(),
+                        icu: format!("{base}.icu"),
+                        stages: (0..m.clusters[c].icu.depth())
+                            .map(|n| format!("{base}.icu.stage_{n}"))
+                            .collect(),
+                    }
+                })
+                .collect(),
         }
     }
 }

@@ -1,0 +1,88 @@
+//! Simulation rate of the paper machine on scene2 (simulated cycles per wall second), and
+//! the cost of cycle-level control over the untimed model doing the same number of
+//! (ray, patch) jobs.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use shellsim::fixed::HostFixed;
+use shellsim::run::{run, RunSpec};
+use shellsim::Scene;
+use shellsim_hw::datapath::intersect;
+use shellsim_hw::machine::TickOrder;
+use shellsim_hw::Exceptions;
+use std::hint::black_box;
+use std::path::Path;
+
+fn bench(c: &mut Criterion) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
+    let scene = Scene::load_json(&path).expect("scenes/scene2.json");
+    let cfg = shellsim::cli::machine_config(None).unwrap();
+    let spec = RunSpec {
+        source: 0,
+        ratio: 1,
+        cell: 0.05,
+        order: TickOrder::Forward,
+    };
+    let probe = run(&scene, &path, &cfg, &spec, None).unwrap();
+    let jobs = probe.stats.jobs;
+    eprintln!(
+        "scene2, paper.toml, ratio 1: {} cycles, {} jobs",
+        probe.stats.cycles, jobs
+    );
+    let mut g = c.benchmark_group("machine_scene2");
+    g.sample_size(10);
+    g.bench_function("whole_run_with_partition_and_check", |b| {
+        b.iter(|| black_box(run(&scene, &path, &cfg, &spec, None).unwrap().stats.cycles))
+    });
+    let prep = shellsim::run::prepare(&scene, &path, &cfg, &spec).unwrap();
+    g.bench_function("cycle_model", |b| {
+        b.iter(|| {
+            let mut m = shellsim_hw::machine::Machine::new(
+                cfg,
+                &prep.host.scene,
+                &prep.records,
+                &prep.sectors,
+                0,
+            );
+            m.run(TickOrder::Forward, None).unwrap();
+            black_box(m.cycle)
+        })
+    });
+    // The untimed model doing the same number of (ray, patch) jobs: each high-resolution
+    // ray against patches in id order, wrapping, until `jobs` tests are done.
+    let host = HostFixed::new(&scene, &path, cfg.datapath, 0.05).unwrap();
+    let set = shellsim::rays::hemisphere_rays(
+        &scene.patches[0],
+        969,
+        shellsim::rays::Directions::Rings,
+        shellsim::rays::Origins::Patch,
+        2,
+    );
+    let records: Vec<_> = set
+        .rays
+        .iter()
+        .enumerate()
+        .map(|(i, r)| host.ray(i as u32, r).unwrap())
+        .collect();
+    let f = *host.formats();
+    g.bench_function("untimed_same_jobs", |b| {
+        b.iter(|| {
+            let mut exc = Exceptions::default();
+            let mut n = 0u64;
+            let per_ray = (jobs as usize).div_ceil(records.len());
+            'outer: for r in &records {
+                for k in 0..per_ray {
+                    let p = &host.scene.patches[k % host.scene.patches.len()];
+                    n += intersect(r, p, &f, &mut exc).is_some() as u64;
+                }
+                if n > u64::MAX / 2 {
+                    break 'outer;
+                }
+            }
+            n
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

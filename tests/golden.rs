@@ -1,0 +1,113 @@
+//! Regression goldens: the key statistics of the cycle-level machine (cycles, busy / idle /
+//! stalled cycles per unit, patch loads, jobs, memory traffic) per committed scene ×
+//! configuration, compared exactly with tests/golden/*.json. `UPDATE_GOLDEN=1 cargo test
+//! --release --test golden` rewrites them on purpose (review the diff before committing).
+
+mod common;
+
+use serde_json::{json, Value};
+use shellsim::run::{run, RunSpec};
+use shellsim_hw::machine::TickOrder;
+use std::path::{Path, PathBuf};
+
+/// The figures a golden pins.
+fn key_figures(s: &shellsim::run::RunStats) -> Value {
+    json!({
+        "rays": s.rays,
+        "cycles": s.cycles,
+        "patch_loads": s.patch_loads,
+        "jobs": s.jobs,
+        "memory_wait_cycles": s.memory.wait_cycles,
+        "memory_busy_cycles": s.memory.busy_cycles,
+        "clusters": s.clusters.iter().map(|c| json!({
+            "icu_busy_cycles": c.icu.busy_cycles,
+            "icu_idle_cycles": c.icu.idle_cycles,
+            "icu_stalled_cycles": c.icu.stalled_cycles,
+            "icu_busy_stage_cycles": c.icu.busy_stage_cycles,
+            "ctus": c.ctus.iter().map(|t| json!({
+                "busy_cycles": t.busy_cycles,
+                "idle_cycles": t.idle_cycles,
+                "stalled_cycles": t.stalled_cycles,
+                "dda_steps": t.dda_steps,
+                "patch_requests": t.patch_requests,
+                "jobs_issued": t.jobs_issued,
+                "subshells": t.subshells,
+            })).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+    })
+}
+
+fn golden(scene_file: &str, config: &str) {
+    let scene = common::load(scene_file);
+    let cfg_path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("hw/configs")
+        .join(config);
+    let cfg = shellsim::cli::machine_config(Some(&cfg_path)).unwrap();
+    let spec = RunSpec {
+        source: 0,
+        ratio: 1,
+        cell: 0.05,
+        order: TickOrder::Forward,
+    };
+    let out = run(&scene, Path::new(scene_file), &cfg, &spec, None).unwrap();
+    assert_eq!(out.stats.mismatches_vs_fixed, 0);
+    let text = serde_json::to_string_pretty(&key_figures(&out.stats)).unwrap() + "\n";
+    let name = format!(
+        "{}__{}.json",
+        scene_file.trim_end_matches(".json"),
+        config.trim_end_matches(".toml")
+    );
+    let path: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/golden")
+        .join(&name);
+    if std::env::var_os("UPDATE_GOLDEN").is_some() {
+        std::fs::write(&path, &text).unwrap();
+        return;
+    }
+    let want = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+        panic!(
+            "{}: {e}; create it with UPDATE_GOLDEN=1 cargo test --release --test golden",
+            path.display()
+        )
+    });
+    if want != text {
+        let first = want
+            .lines()
+            .zip(text.lines())
+            .position(|(a, b)| a != b)
+            .unwrap_or(0);
+        panic!(
+            "{name} changed (first difference at line {}: golden {:?}, now {:?}).\n\
+             If the change is intended: UPDATE_GOLDEN=1 cargo test --release --test golden, and review the diff.",
+            first + 1,
+            want.lines().nth(first),
+            text.lines().nth(first)
+        );
+    }
+}
+
+macro_rules! goldens {
+    ($($name:ident => $scene:expr, $cfg:expr);* $(;)?) => {$(
+        #[test]
+        fn $name() {
+            golden($scene, $cfg);
+        }
+    )*};
+}
+
+goldens! {
+    scene1_paper => "scene1.json", "paper.toml";
+    scene1_small => "scene1.json", "small.toml";
+    scene2_paper => "scene2.json", "paper.toml";
+    scene2_small => "scene2.json", "small.toml";
+    cornell_paper => "cornell.json", "paper.toml";
+    cornell_small => "cornell.json", "small.toml";
+    stress_edges_paper => "stress-edges.json", "paper.toml";
+    stress_edges_small => "stress-edges.json", "small.toml";
+    stress_grazing_paper => "stress-grazing.json", "paper.toml";
+    stress_grazing_small => "stress-grazing.json", "small.toml";
+    stress_skewed_paper => "stress-skewed.json", "paper.toml";
+    stress_skewed_small => "stress-skewed.json", "small.toml";
+    stress_dense_paper => "stress-dense.json", "paper.toml";
+    stress_dense_small => "stress-dense.json", "small.toml";
+}
