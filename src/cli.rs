@@ -159,6 +159,18 @@ pub struct RunArgs {
     /// Dynamic workload balancing: overrides the configuration's [balance] enabled.
     #[arg(long, value_enum)]
     pub balance: Option<OnOff>,
+    /// Write the machine's waveform as a VCD here, and a GTKWave save file (signals grouped
+    /// per unit and formatted) beside it with the same stem and extension .gtkw.
+    #[arg(long, value_name = "OUT")]
+    pub vcd: Option<PathBuf>,
+    /// Only cycles FROM..=TO in the VCD (either side may be left empty); the values holding
+    /// at FROM are dumped in full.
+    #[arg(long, value_name = "FROM:TO", requires = "vcd", value_parser = crate::vcd_out::Window::parse)]
+    pub vcd_window: Option<crate::vcd_out::Window>,
+    /// Only signals whose dotted scope matches PATTERN: a glob with * and ? on the whole
+    /// scope (e.g. 'machine.cluster_0.*'), else a substring (e.g. 'icu').
+    #[arg(long, value_name = "PATTERN", requires = "vcd")]
+    pub vcd_scope: Option<String>,
 }
 
 /// On or off.
@@ -407,7 +419,42 @@ pub fn run(cli: Cli) -> Result<()> {
                 cell: DEFAULT_CELL,
                 order: shellsim_hw::machine::TickOrder::Forward,
             };
-            let out = crate::run::run(&scene, &a.scene, &cfg, &spec, None)?;
+            // The VCD streams into a temporary file; an error drops the writer, which removes
+            // it, so a failed run leaves no waveform behind.
+            if let Some(p) = &a.vcd {
+                if crate::gtkw::path_for(p) == *p {
+                    return Err(Error::Usage(format!(
+                        "--vcd {}: the GTKWave save file would overwrite it; name it *.vcd",
+                        p.display()
+                    )));
+                }
+            }
+            let mut vcd = match &a.vcd {
+                Some(p) => Some(crate::vcd_out::VcdWriter::create(
+                    p,
+                    crate::vcd_out::VcdOptions {
+                        window: a.vcd_window.unwrap_or(crate::vcd_out::Window::ALL),
+                        scope: a.vcd_scope.as_deref().map(crate::vcd_out::ScopeFilter::new),
+                    },
+                )?),
+                None => None,
+            };
+            let probe = vcd
+                .as_mut()
+                .map(|w| w as &mut dyn shellsim_hw::trace::Probe);
+            let out = crate::run::run(&scene, &a.scene, &cfg, &spec, probe)?;
+            if let Some(w) = vcd {
+                let summary = w.finish()?;
+                let gtkw = crate::gtkw::path_for(&summary.path);
+                crate::gtkw::write(&gtkw, &summary)?;
+                println!(
+                    "waveform: {} ({} signals, {} bytes) and {}",
+                    summary.path.display(),
+                    summary.signals.len(),
+                    summary.bytes,
+                    gtkw.display()
+                );
+            }
             let s = &out.stats;
             println!(
                 "{}: {} rays, {} cycles, pipeline efficiency {:.3}, {} patch loads, {} jobs, {} mismatches vs fixed, {:.2} M cycles/s",

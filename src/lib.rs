@@ -8,6 +8,7 @@ pub mod error;
 pub mod fixed;
 pub mod gen;
 pub mod grid;
+pub mod gtkw;
 pub mod obj;
 pub mod partition;
 pub mod progress;
@@ -17,6 +18,7 @@ pub mod run;
 pub mod scene;
 pub mod sweep;
 pub mod trace;
+pub mod vcd_out;
 
 pub use error::{Error, Result};
 pub use scene::{Aabb, Patch, Scene, Spectrum};

@@ -1,0 +1,694 @@
+//! The machine's VCD waveform read back by an independent parser (the `vcd` crate's
+//! `Parser`): link transfer counts in the waveform equal the run's statistics, every unit has
+//! its scope, time only moves forward, runs are byte-identical, the cycle window and the scope
+//! filter keep exactly what they should, and the .gtkw names only signals the VCD declares.
+//!
+//! Reproduce a waveform by hand with
+//! `shellsim run --scene scenes/scene1.json --hw hw/configs/small.toml --ratio 1 --vcd waves/x.vcd`.
+
+mod common;
+
+use shellsim::gtkw;
+use shellsim::run::{RunSpec, RunStats};
+use shellsim::vcd_out::{ScopeFilter, VcdOptions, VcdSummary, VcdWriter, Window};
+use shellsim_hw::machine::TickOrder;
+use shellsim_hw::machine_config::MachineConfig;
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+/// A value read from the waveform.
+#[derive(Clone, Debug, PartialEq, Eq)]
+enum V {
+    Bits(u64),
+    Text(String),
+}
+
+/// A declared variable.
+#[derive(Clone, Debug)]
+struct Var {
+    /// Full dotted name: `machine.cluster_0.icu.stage_3.valid`.
+    name: String,
+    width: u32,
+    is_string: bool,
+    /// `(time, value)` changes in file order.
+    changes: Vec<(u64, V)>,
+}
+
+impl Var {
+    fn scope(&self) -> &str {
+        self.name.rsplit_once('.').map_or("", |(s, _)| s)
+    }
+
+    fn leaf(&self) -> &str {
+        self.name.rsplit_once('.').map_or(&self.name, |(_, n)| n)
+    }
+
+    /// The value holding at time `t` (the last change at or before it).
+    fn at(&self, t: u64) -> Option<&V> {
+        self.changes
+            .iter()
+            .take_while(|(ct, _)| *ct <= t)
+            .last()
+            .map(|(_, v)| v)
+    }
+
+    fn last(&self) -> &V {
+        &self
+            .changes
+            .last()
+            .expect("a dumped variable has a value")
+            .1
+    }
+
+    fn last_bits(&self) -> u64 {
+        match self.last() {
+            V::Bits(b) => *b,
+            V::Text(t) => panic!("{} is a string ({t})", self.name),
+        }
+    }
+}
+
+/// A waveform as the `vcd` crate's parser reads it.
+struct Wave {
+    vars: BTreeMap<String, Var>,
+    /// Every scope declared, dotted.
+    scopes: BTreeSet<String>,
+    /// Every `#t`, in file order.
+    timestamps: Vec<u64>,
+    /// Times at which a `$dumpvars` block started.
+    dumpvars_at: Vec<u64>,
+}
+
+impl Wave {
+    fn var(&self, name: &str) -> &Var {
+        self.vars
+            .get(name)
+            .unwrap_or_else(|| panic!("{name} is not in the waveform"))
+    }
+
+    /// The final `transfers` of every link scope (one with valid, ready, occupancy and
+    /// transfers), by scope.
+    fn link_transfers(&self) -> BTreeMap<String, u64> {
+        let mut leaves: HashMap<&str, BTreeSet<&str>> = HashMap::new();
+        for v in self.vars.values() {
+            leaves.entry(v.scope()).or_default().insert(v.leaf());
+        }
+        leaves
+            .iter()
+            .filter(|(_, l)| {
+                ["valid", "ready", "occupancy", "transfers"]
+                    .iter()
+                    .all(|x| l.contains(x))
+            })
+            .map(|(s, _)| {
+                (
+                    s.to_string(),
+                    self.var(&format!("{s}.transfers")).last_bits(),
+                )
+            })
+            .collect()
+    }
+}
+
+/// Parses a VCD file with `vcd::Parser`.
+fn read(path: &Path) -> Wave {
+    let f = std::io::BufReader::new(std::fs::File::open(path).unwrap());
+    let mut p = vcd::Parser::new(f);
+    let header = p.parse_header().unwrap();
+    let mut vars = BTreeMap::new();
+    let mut scopes = BTreeSet::new();
+    let mut by_code: HashMap<vcd::IdCode, String> = HashMap::new();
+    fn walk(
+        items: &[vcd::ScopeItem],
+        prefix: &str,
+        vars: &mut BTreeMap<String, Var>,
+        scopes: &mut BTreeSet<String>,
+        by_code: &mut HashMap<vcd::IdCode, String>,
+    ) {
+        for i in items {
+            match i {
+                vcd::ScopeItem::Scope(s) => {
+                    let name = if prefix.is_empty() {
+                        s.identifier.clone()
+                    } else {
+                        format!("{prefix}.{}", s.identifier)
+                    };
+                    assert_eq!(s.scope_type, vcd::ScopeType::Module);
+                    scopes.insert(name.clone());
+                    walk(&s.items, &name, vars, scopes, by_code);
+                }
+                vcd::ScopeItem::Var(v) => {
+                    let name = format!("{prefix}.{}", v.reference);
+                    let is_string = v.var_type == vcd::VarType::String;
+                    if !is_string {
+                        assert_eq!(v.var_type, vcd::VarType::Wire, "{name}");
+                        // Vectors carry their range; scalars none.
+                        let want =
+                            (v.size > 1).then(|| vcd::ReferenceIndex::Range(v.size as i32 - 1, 0));
+                        assert_eq!(v.index, want, "{name}");
+                    }
+                    assert!(
+                        by_code.insert(v.code, name.clone()).is_none(),
+                        "{name}: code reused"
+                    );
+                    let var = Var {
+                        name: name.clone(),
+                        width: v.size,
+                        is_string,
+                        changes: vec![],
+                    };
+                    assert!(
+                        vars.insert(name.clone(), var).is_none(),
+                        "{name} declared twice"
+                    );
+                }
+                vcd::ScopeItem::Comment(_) => {}
+                _ => {}
+            }
+        }
+    }
+    walk(&header.items, "", &mut vars, &mut scopes, &mut by_code);
+    assert_eq!(
+        header.timescale,
+        Some((1, vcd::TimescaleUnit::NS)),
+        "one time unit per cycle"
+    );
+    assert!(
+        header.date.is_none(),
+        "no date: runs must be byte-identical"
+    );
+    let mut timestamps = vec![];
+    let mut dumpvars_at = vec![];
+    let mut t = None;
+    for cmd in p {
+        let cmd = cmd.unwrap();
+        let mut set = |code: &vcd::IdCode, v: V| {
+            let t = t.expect("a value before the first timestamp");
+            let name = &by_code[code];
+            let var = vars.get_mut(name).unwrap();
+            if let Some((_, prev)) = var.changes.last() {
+                assert_ne!(prev, &v, "{name} at {t}: rewritten without a change");
+            }
+            var.changes.push((t, v));
+        };
+        match cmd {
+            vcd::Command::Timestamp(x) => {
+                timestamps.push(x);
+                t = Some(x);
+            }
+            vcd::Command::ChangeScalar(c, v) => set(&c, V::Bits((v == vcd::Value::V1) as u64)),
+            vcd::Command::ChangeVector(c, bits) => {
+                let mut b = 0u64;
+                for v in bits.iter() {
+                    assert!(matches!(v, vcd::Value::V0 | vcd::Value::V1));
+                    b = (b << 1) | (v == vcd::Value::V1) as u64;
+                }
+                set(&c, V::Bits(b));
+            }
+            vcd::Command::ChangeString(c, s) => set(&c, V::Text(s)),
+            vcd::Command::Begin(vcd::SimulationCommand::Dumpvars) => {
+                dumpvars_at.push(t.expect("$dumpvars after a timestamp"))
+            }
+            vcd::Command::End(_) => {}
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+    Wave {
+        vars,
+        scopes,
+        timestamps,
+        dumpvars_at,
+    }
+}
+
+/// The committed small machine.
+fn small() -> MachineConfig {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("hw/configs/small.toml");
+    shellsim::cli::machine_config(Some(&p)).unwrap()
+}
+
+/// One waveform of scene1 on small.toml, ratio 1, with `opts`; returns the statistics, the
+/// writer's summary and the .gtkw path.
+fn run(dir: &Path, file: &str, opts: VcdOptions) -> (RunStats, VcdSummary, PathBuf) {
+    let scene_file = common::scene_path("scene1.json");
+    let scene = common::load("scene1.json");
+    let spec = RunSpec {
+        source: 0,
+        ratio: 1,
+        cell: shellsim::grid::DEFAULT_CELL,
+        order: TickOrder::Forward,
+    };
+    let path = dir.join(file);
+    let mut w = VcdWriter::create(&path, opts).unwrap();
+    let out = shellsim::run::run(&scene, &scene_file, &small(), &spec, Some(&mut w)).unwrap();
+    assert_eq!(out.stats.mismatches_vs_fixed, 0);
+    let summary = w.finish().unwrap();
+    let g = gtkw::path_for(&path);
+    gtkw::write(&g, &summary).unwrap();
+    (out.stats, summary, g)
+}
+
+/// The full waveform, made once for all tests.
+struct Full {
+    _dir: tempfile::TempDir,
+    stats: RunStats,
+    summary: VcdSummary,
+    gtkw: PathBuf,
+    wave: Wave,
+}
+
+fn full() -> &'static Full {
+    static FULL: OnceLock<Full> = OnceLock::new();
+    FULL.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        let (stats, summary, gtkw) = run(dir.path(), "full.vcd", VcdOptions::default());
+        let wave = read(&summary.path);
+        Full {
+            _dir: dir,
+            stats,
+            summary,
+            gtkw,
+            wave,
+        }
+    })
+}
+
+#[test]
+fn link_transfers_in_the_waveform_equal_the_run_statistics() {
+    let f = full();
+    let s = &f.stats;
+    let links = f.wave.link_transfers();
+    let k = s.clusters[0].ctus.len();
+    let mut expected: BTreeMap<String, u64> = BTreeMap::new();
+    for (c, cl) in s.clusters.iter().enumerate() {
+        let base = format!("machine.cluster_{c}");
+        // The ICU pops the ray buffer; the patch buffer pops its store.
+        expected.insert(format!("{base}.ray_buffer"), cl.icu.jobs_in);
+        expected.insert(format!("{base}.patch_buffer"), cl.patch_buffer.patches_in);
+        for (j, ctu) in cl.ctus.iter().enumerate() {
+            expected.insert(format!("{base}.ctu_{j}.jobs"), ctu.jobs_issued);
+            expected.insert(format!("{base}.ctu_{j}.results"), ctu.results);
+            expected.insert(
+                format!("machine.memory.arbiter.req_{c}_{j}"),
+                ctu.patch_requests,
+            );
+        }
+        // Every patch the buffer hands on arrives at one of its CTUs.
+        let arrivals: u64 = (0..k)
+            .map(|j| links[&format!("{base}.ctu_{j}.arrivals")])
+            .sum();
+        assert_eq!(arrivals, cl.patch_buffer.patches_in, "{base} arrivals");
+        for j in 0..k {
+            let a = format!("{base}.ctu_{j}.arrivals");
+            expected.insert(a.clone(), links[&a]);
+        }
+        // The unit counters beside the links.
+        assert_eq!(
+            f.wave.var(&format!("{base}.icu.jobs_in")).last_bits(),
+            cl.icu.jobs_in
+        );
+        for (j, ctu) in cl.ctus.iter().enumerate() {
+            let v = f.wave.var(&format!("{base}.ctu_{j}.jobs_issued"));
+            assert_eq!(v.last_bits(), ctu.jobs_issued);
+            let st = f.wave.var(&format!("{base}.ctu_{j}.state"));
+            assert!(st.is_string);
+            assert_eq!(st.last(), &V::Text("DONE".into()), "every CTU ends DONE");
+        }
+    }
+    assert_eq!(
+        links, expected,
+        "every link scope, checked against the statistics"
+    );
+    // Totals: Σ jobs links = Σ jobs issued; Σ requests = memory grants = patch loads.
+    let jobs: u64 = links
+        .iter()
+        .filter(|(k, _)| k.ends_with(".jobs"))
+        .map(|(_, v)| v)
+        .sum();
+    assert_eq!(jobs, s.jobs);
+    let reqs: u64 = links
+        .iter()
+        .filter(|(k, _)| k.contains(".req_"))
+        .map(|(_, v)| v)
+        .sum();
+    assert_eq!(reqs, s.memory.grants);
+    assert_eq!(
+        f.wave.var("machine.memory.grants").last_bits(),
+        s.memory.grants
+    );
+    assert_eq!(s.patch_loads, s.memory.grants);
+    // Everything drained at the end.
+    for l in links.keys() {
+        assert_eq!(f.wave.var(&format!("{l}.valid")).last_bits(), 0, "{l}");
+        assert_eq!(f.wave.var(&format!("{l}.occupancy")).last_bits(), 0, "{l}");
+    }
+}
+
+#[test]
+fn the_header_declares_every_unit_scope() {
+    let f = full();
+    let cfg = small();
+    let mut want = vec![
+        "machine".to_string(),
+        "machine.memory".into(),
+        "machine.memory.arbiter".into(),
+    ];
+    for c in 0..cfg.machine.clusters {
+        let base = format!("machine.cluster_{c}");
+        want.push(base.clone());
+        for u in ["icu", "ray_buffer", "patch_buffer"] {
+            want.push(format!("{base}.{u}"));
+        }
+        for n in 0..cfg.pipeline_depth() {
+            want.push(format!("{base}.icu.stage_{n}"));
+        }
+        for j in 0..cfg.machine.ctus_per_cluster {
+            want.push(format!("machine.memory.arbiter.req_{c}_{j}"));
+            for l in ["", ".jobs", ".results", ".arrivals"] {
+                want.push(format!("{base}.ctu_{j}{l}"));
+            }
+        }
+    }
+    let want: BTreeSet<String> = want.into_iter().collect();
+    assert_eq!(f.wave.scopes, want);
+    // The fixed-point t of a stage is a wire of the t format's width.
+    let t = f.wave.var("machine.cluster_0.icu.stage_0.t");
+    assert_eq!(t.width, cfg.datapath.formats().unwrap().t.bits());
+    assert_eq!(f.summary.signals.len(), f.wave.vars.len());
+}
+
+#[test]
+fn timestamps_increase_strictly_and_stay_inside_the_run() {
+    let f = full();
+    let ts = &f.wave.timestamps;
+    assert!(ts.len() > 100);
+    assert!(
+        ts.windows(2).all(|w| w[0] < w[1]),
+        "timestamps not increasing"
+    );
+    assert_eq!(ts[0], 0);
+    assert!(*ts.last().unwrap() < f.stats.cycles);
+    assert_eq!(f.wave.dumpvars_at, [0]);
+    // Every variable is dumped at the start.
+    for v in f.wave.vars.values() {
+        assert_eq!(v.changes[0].0, 0, "{}", v.name);
+    }
+    assert_eq!(f.summary.timestamps, ts.len() as u64);
+    assert!(f.summary.samples > 0 && f.summary.samples <= f.stats.cycles);
+}
+
+#[test]
+fn two_runs_give_byte_identical_files() {
+    let f = full();
+    let dir = tempfile::tempdir().unwrap();
+    let (_, again, g) = run(dir.path(), "full.vcd", VcdOptions::default());
+    assert_eq!(
+        std::fs::read(&f.summary.path).unwrap(),
+        std::fs::read(&again.path).unwrap(),
+        "VCD differs between two identical runs"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&f.gtkw)
+            .unwrap()
+            .lines()
+            .filter(|l| !l.contains("file]"))
+            .collect::<Vec<_>>(),
+        std::fs::read_to_string(&g)
+            .unwrap()
+            .lines()
+            .filter(|l| !l.contains("file]"))
+            .collect::<Vec<_>>(),
+        "the .gtkw differs apart from its paths"
+    );
+}
+
+#[test]
+fn a_cycle_window_keeps_only_its_cycles_and_opens_with_the_full_state() {
+    let f = full();
+    let win = Window {
+        from: 5000,
+        to: 6000,
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let (_, s, _) = run(
+        dir.path(),
+        "win.vcd",
+        VcdOptions {
+            window: win,
+            scope: None,
+        },
+    );
+    let w = read(&s.path);
+    assert!(
+        s.bytes < f.summary.bytes / 4,
+        "{} vs {}",
+        s.bytes,
+        f.summary.bytes
+    );
+    assert_eq!(w.timestamps[0], win.from);
+    assert_eq!(w.dumpvars_at, [win.from]);
+    assert!(w.timestamps.iter().all(|&t| win.contains(t)));
+    assert_eq!(
+        w.vars.keys().collect::<Vec<_>>(),
+        f.wave.vars.keys().collect::<Vec<_>>()
+    );
+    // The window holds exactly the full waveform's values, cycle by cycle, from `from` to `to`.
+    for (name, v) in &w.vars {
+        let full = f.wave.var(name);
+        assert_eq!(
+            v.changes[0],
+            (win.from, full.at(win.from).unwrap().clone()),
+            "{name}"
+        );
+        let inside: Vec<_> = full
+            .changes
+            .iter()
+            .filter(|(t, _)| win.from < *t && *t <= win.to)
+            .collect();
+        assert_eq!(v.changes[1..].iter().collect::<Vec<_>>(), inside, "{name}");
+    }
+    // The same window between two samples (no cycle there) still opens at `from`.
+    let gap = f
+        .wave
+        .timestamps
+        .windows(2)
+        .find(|p| p[1] - p[0] > 2)
+        .expect("some cycle with no change");
+    let win2 = Window {
+        from: gap[0] + 1,
+        to: gap[1] + 10,
+    };
+    let (_, s2, _) = run(
+        dir.path(),
+        "gap.vcd",
+        VcdOptions {
+            window: win2,
+            scope: None,
+        },
+    );
+    let w2 = read(&s2.path);
+    assert_eq!(w2.dumpvars_at, [win2.from]);
+    for (name, v) in &w2.vars {
+        assert_eq!(v.at(win2.from), f.wave.var(name).at(win2.from), "{name}");
+        assert_eq!(v.at(win2.to), f.wave.var(name).at(win2.to), "{name}");
+    }
+}
+
+#[test]
+fn a_scope_filter_declares_only_matching_signals() {
+    let f = full();
+    let dir = tempfile::tempdir().unwrap();
+    for (pattern, keep) in [
+        (
+            "machine.cluster_0.*",
+            &(|s: &str| s.starts_with("machine.cluster_0.")) as &dyn Fn(&str) -> bool,
+        ),
+        ("icu", &|s: &str| s.contains("icu")),
+        ("*.ctu_?", &|s: &str| {
+            s.ends_with(".ctu_0") || s.ends_with(".ctu_1")
+        }),
+    ] {
+        let (_, s, g) = run(
+            dir.path(),
+            "scoped.vcd",
+            VcdOptions {
+                window: Window::ALL,
+                scope: Some(ScopeFilter::new(pattern)),
+            },
+        );
+        let w = read(&s.path);
+        assert!(s.bytes < f.summary.bytes, "{pattern}: not smaller");
+        let want: Vec<&String> = f
+            .wave
+            .vars
+            .iter()
+            .filter(|(_, v)| keep(v.scope()))
+            .map(|(k, _)| k)
+            .collect();
+        assert!(!want.is_empty(), "{pattern} keeps something");
+        assert_eq!(w.vars.keys().collect::<Vec<_>>(), want, "{pattern}");
+        // Kept signals have the full run's history (timestamps only where they change).
+        for (name, v) in &w.vars {
+            assert_eq!(v.changes, f.wave.var(name).changes, "{pattern}: {name}");
+        }
+        let changed: BTreeSet<u64> = w
+            .vars
+            .values()
+            .flat_map(|v| v.changes.iter().map(|c| c.0))
+            .collect();
+        assert_eq!(
+            w.timestamps,
+            changed.into_iter().collect::<Vec<_>>(),
+            "{pattern}"
+        );
+        check_gtkw(&g, &w);
+    }
+}
+
+#[test]
+fn the_gtkw_names_only_signals_of_the_vcd_and_all_of_them() {
+    let f = full();
+    check_gtkw(&f.gtkw, &f.wave);
+    let text = std::fs::read_to_string(&f.gtkw).unwrap();
+    assert!(text.contains(&format!("[dumpfile] \"{}\"", f.summary.path.display())));
+    // Fixed-point t as a signed decimal with the t format's fractional bits as its shift.
+    let frac = small().datapath.formats().unwrap().t.frac_bits;
+    assert!(text.contains(&format!(
+        "@40000420\n[fpshift_count] {frac}\nmachine.cluster_0.icu.stage_0.t["
+    )));
+}
+
+/// Every signal line of the .gtkw names a variable of `w` (vectors with their `[w-1:0]`
+/// range, as GTKWave names them), every variable is named once, and groups balance.
+fn check_gtkw(path: &Path, w: &Wave) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut named = BTreeSet::new();
+    let mut flags = 0u64;
+    let mut depth = 0i32;
+    for line in text.lines() {
+        if let Some(hex) = line.strip_prefix('@') {
+            flags = u64::from_str_radix(hex, 16).unwrap();
+        } else if let Some(label) = line.strip_prefix('-') {
+            assert!(!label.is_empty());
+            if flags & gtkw::TR_GRP_BEGIN != 0 {
+                depth += 1;
+            } else if flags & gtkw::TR_GRP_END != 0 {
+                depth -= 1;
+                assert!(depth >= 0, "group closed twice");
+            }
+        } else if line.starts_with('[') {
+            continue;
+        } else {
+            assert_eq!(
+                flags & (gtkw::TR_GRP_BEGIN | gtkw::TR_GRP_END | gtkw::TR_BLANK),
+                0
+            );
+            let (name, width) = match line.strip_suffix(']').and_then(|l| l.rsplit_once('[')) {
+                Some((n, range)) => {
+                    let (msb, lsb) = range.split_once(':').unwrap();
+                    assert_eq!(lsb, "0");
+                    (n, msb.parse::<u32>().unwrap() + 1)
+                }
+                None => (line, 1),
+            };
+            let v = w
+                .vars
+                .get(name)
+                .unwrap_or_else(|| panic!("{path:?} names {line}, not in the VCD"));
+            assert_eq!(v.width, width, "{line}");
+            assert!(named.insert(name.to_string()), "{line} twice");
+        }
+    }
+    assert_eq!(depth, 0, "groups left open");
+    assert_eq!(named, w.vars.keys().cloned().collect::<BTreeSet<_>>());
+}
+
+#[test]
+fn the_cli_writes_the_gtkw_beside_the_vcd() {
+    let dir = tempfile::tempdir().unwrap();
+    let vcd = dir.path().join("waves/x.vcd");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args(["run", "--scene"])
+        .arg(common::scene_path("scene1.json"))
+        .arg("--hw")
+        .arg(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("hw/configs/small.toml"))
+        .args([
+            "--ratio",
+            "1",
+            "--vcd-window",
+            "100:200",
+            "--vcd-scope",
+            "icu",
+            "--vcd",
+        ])
+        .arg(&vcd)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let w = read(&vcd);
+    assert!(w.timestamps.iter().all(|&t| (100..=200).contains(&t)));
+    assert!(w.vars.keys().all(|k| k.contains("icu")));
+    check_gtkw(&dir.path().join("waves/x.gtkw"), &w);
+    // Nothing else left in the directory (no temporary files).
+    let names: BTreeSet<String> = std::fs::read_dir(dir.path().join("waves"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names, ["x.gtkw".to_string(), "x.vcd".to_string()].into());
+    // The window and scope options need --vcd.
+    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args(["run", "--scene", "x.json", "--vcd-window", "1:2"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+}
+
+/// Opens the save file in a real GTKWave (needs `gtkwave` and `xvfb-run`, e.g. Debian's
+/// packages of those names): every trace is found, formats as written, and the fixed-point
+/// t shows as a decimal. Run with `cargo test --release --test vcd -- --ignored`.
+#[test]
+#[ignore = "needs gtkwave and xvfb-run"]
+fn gtkwave_opens_the_save_file_with_every_signal() {
+    let f = full();
+    let dir = tempfile::tempdir().unwrap();
+    let script = dir.path().join("list.tcl");
+    let listing = dir.path().join("traces.txt");
+    std::fs::write(
+        &script,
+        format!(
+            "set f [open {{{}}} w]\n\
+             set n [gtkwave::getTotalNumTraces]\n\
+             for {{set i 0}} {{$i < $n}} {{incr i}} {{\n\
+             puts $f \"[gtkwave::getTraceNameFromIndex $i] [format %x [gtkwave::getTraceFlagsFromIndex $i]]\"\n\
+             }}\n\
+             close $f\n\
+             gtkwave::/File/Quit\n",
+            listing.display()
+        ),
+    )
+    .unwrap();
+    let st = std::process::Command::new("xvfb-run")
+        .args(["-a", "gtkwave", "-S"])
+        .arg(&script)
+        .arg(&f.gtkw)
+        .output()
+        .expect("xvfb-run and gtkwave installed");
+    assert!(
+        st.status.success(),
+        "{}",
+        String::from_utf8_lossy(&st.stderr)
+    );
+    let text = std::fs::read_to_string(&listing).unwrap();
+    let traces: Vec<&str> = text.lines().collect();
+    let groups = traces.iter().filter(|l| l.ends_with(" 800200")).count();
+    assert_eq!(
+        traces.len(),
+        f.wave.vars.len() + 2 * groups,
+        "a signal was not found"
+    );
+}
