@@ -650,9 +650,8 @@ fn the_cli_writes_the_gtkw_beside_the_vcd() {
 
 /// Opens the save file in a real GTKWave (needs `gtkwave` and `xvfb-run`, e.g. Debian's
 /// packages of those names): every trace is found, formats as written, and the fixed-point
-/// t shows as a decimal. Run with `cargo test --release --test vcd -- --ignored`.
+/// t shows as a decimal. `.ci/run` installs both.
 #[test]
-#[ignore = "needs gtkwave and xvfb-run"]
 fn gtkwave_opens_the_save_file_with_every_signal() {
     let f = full();
     let dir = tempfile::tempdir().unwrap();
