@@ -650,9 +650,24 @@ fn the_cli_writes_the_gtkw_beside_the_vcd() {
 
 /// Opens the save file in a real GTKWave (needs `gtkwave` and `xvfb-run`, e.g. Debian's
 /// packages of those names): every trace is found, formats as written, and the fixed-point
-/// t shows as a decimal. `.ci/run` installs both.
+/// t shows as a decimal. `.ci/run` installs both, and in CI (CI set) their absence fails
+/// the test; on a developer's machine without them it says so and passes.
 #[test]
 fn gtkwave_opens_the_save_file_with_every_signal() {
+    let have = |tool: &str| {
+        std::process::Command::new("sh")
+            .args(["-c", &format!("command -v {tool}")])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if !(have("gtkwave") && have("xvfb-run")) {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "CI must install gtkwave and xvfb (.ci/run does)"
+        );
+        eprintln!("gtkwave or xvfb-run not installed: the GTKWave check did not run");
+        return;
+    }
     let f = full();
     let dir = tempfile::tempdir().unwrap();
     let script = dir.path().join("list.tcl");
