@@ -419,60 +419,20 @@ pub fn run(cli: Cli) -> Result<()> {
                 cell: DEFAULT_CELL,
                 order: shellsim_hw::machine::TickOrder::Forward,
             };
-            // The VCD streams into a temporary file; an error drops the writer, which removes
-            // it, so a failed run leaves no waveform behind.
-            if let Some(p) = &a.vcd {
-                if crate::gtkw::path_for(p) == *p {
-                    return Err(Error::Usage(format!(
-                        "--vcd {}: the GTKWave save file would overwrite it; name it *.vcd",
-                        p.display()
-                    )));
-                }
-            }
-            let mut vcd = match &a.vcd {
-                Some(p) => Some(crate::vcd_out::VcdWriter::create(
-                    p,
+            let vcd = a.vcd.as_ref().map(|p| {
+                (
+                    p.clone(),
                     crate::vcd_out::VcdOptions {
                         window: a.vcd_window.unwrap_or(crate::vcd_out::Window::ALL),
                         scope: a.vcd_scope.as_deref().map(crate::vcd_out::ScopeFilter::new),
                     },
-                )?),
-                None => None,
-            };
-            let probe = vcd
-                .as_mut()
-                .map(|w| w as &mut dyn shellsim_hw::trace::Probe);
-            let out = crate::run::run(&scene, &a.scene, &cfg, &spec, probe)?;
-            if let Some(w) = vcd {
-                let summary = w.finish()?;
-                let gtkw = crate::gtkw::path_for(&summary.path);
-                crate::gtkw::write(&gtkw, &summary)?;
-                println!(
-                    "waveform: {} ({} signals, {} bytes) and {}",
-                    summary.path.display(),
-                    summary.signals.len(),
-                    summary.bytes,
-                    gtkw.display()
-                );
-            }
-            let s = &out.stats;
+                )
+            });
+            let s = machine_job(&scene, &a.scene, &cfg, &spec, vcd, a.json.as_deref())?;
             println!(
                 "{}: {} rays, {} cycles, pipeline efficiency {:.3}, {} patch loads, {} jobs, {} mismatches vs fixed, {:.2} M cycles/s",
                 s.scene, s.rays, s.cycles, s.pipeline_efficiency, s.patch_loads, s.jobs, s.mismatches_vs_fixed, s.sim_rate_hz / 1e6
             );
-            if let Some(out_path) = &a.json {
-                #[derive(serde::Serialize)]
-                struct Out<'a> {
-                    config: shellsim_hw::machine_config::MachineConfig,
-                    stats: &'a crate::run::RunStats,
-                }
-                let text = serde_json::to_string_pretty(&Out {
-                    config: cfg,
-                    stats: s,
-                })
-                .expect("serializes");
-                write_atomic(out_path, (text + "\n").as_bytes())?;
-            }
             if s.mismatches_vs_fixed > 0 {
                 return Err(Error::Check(format!(
                     "{} rays differ from the fixed-point model",
@@ -562,6 +522,61 @@ fn print_reference(r: &ReferenceReport, scene: &Scene) {
     }
 }
 
+/// Runs the machine, writing the VCD (+ .gtkw) and the JSON (configuration + statistics)
+/// when asked. The VCD streams into a temporary file; an error drops the writer, which
+/// removes it, so a failed run leaves no waveform behind.
+pub fn machine_job(
+    scene: &Scene,
+    file: &Path,
+    cfg: &shellsim_hw::machine_config::MachineConfig,
+    spec: &crate::run::RunSpec,
+    vcd: Option<(PathBuf, crate::vcd_out::VcdOptions)>,
+    json: Option<&Path>,
+) -> Result<crate::run::RunStats> {
+    if let Some((p, _)) = &vcd {
+        if crate::gtkw::path_for(p) == *p {
+            return Err(Error::Usage(format!(
+                "--vcd {}: the GTKWave save file would overwrite it; name it *.vcd",
+                p.display()
+            )));
+        }
+    }
+    let mut writer = match vcd {
+        Some((p, opts)) => Some(crate::vcd_out::VcdWriter::create(&p, opts)?),
+        None => None,
+    };
+    let probe = writer
+        .as_mut()
+        .map(|w| w as &mut dyn shellsim_hw::trace::Probe);
+    let out = crate::run::run(scene, file, cfg, spec, probe)?;
+    if let Some(w) = writer {
+        let summary = w.finish()?;
+        let gtkw = crate::gtkw::path_for(&summary.path);
+        crate::gtkw::write(&gtkw, &summary)?;
+        println!(
+            "waveform: {} ({} signals, {} bytes) and {}",
+            summary.path.display(),
+            summary.signals.len(),
+            summary.bytes,
+            gtkw.display()
+        );
+    }
+    if let Some(out_path) = json {
+        #[derive(serde::Serialize)]
+        struct Out<'a> {
+            config: shellsim_hw::machine_config::MachineConfig,
+            stats: &'a crate::run::RunStats,
+        }
+        let text = serde_json::to_string_pretty(&Out {
+            config: *cfg,
+            stats: &out.stats,
+        })
+        .expect("serializes");
+        write_atomic(out_path, (text + "\n").as_bytes())?;
+    }
+    Ok(out.stats)
+}
+
 /// The paper's test scene 2, built in so the default job needs no files.
 const BUILTIN_SCENE2: &str = include_str!("../scenes/scene2.json");
 
@@ -572,6 +587,30 @@ fn default_job() -> Result<()> {
     let path = Path::new("<built-in scenes/scene2.json>");
     let scene = Scene::from_json_str(BUILTIN_SCENE2, path)?;
     let source = crate::gen::Kind::Scene2.default_source() as u32;
+    let cfg = machine_config(None)?;
+    // 1. The cycle-level machine (paper.toml) with its waveform and statistics in waves/.
+    let spec = crate::run::RunSpec {
+        source,
+        ratio: 1,
+        cell: DEFAULT_CELL,
+        order: shellsim_hw::machine::TickOrder::Forward,
+    };
+    let vcd = (
+        PathBuf::from("waves/default.vcd"),
+        crate::vcd_out::VcdOptions {
+            window: crate::vcd_out::Window::ALL,
+            scope: None,
+        },
+    );
+    let m = machine_job(
+        &scene,
+        path,
+        &cfg,
+        &spec,
+        Some(vcd),
+        Some(Path::new("waves/default.json")),
+    )?;
+    // 2. The float reference on the paper's 969 ring rays: enclosure and form factors.
     let args = ReferenceArgs {
         scene: path.to_path_buf(),
         source,
@@ -582,8 +621,8 @@ fn default_job() -> Result<()> {
         json: None,
     };
     let report = reference_job(&scene, &args)?;
-    print_reference(&report, &scene);
-    // Check 1: the grid traversal against brute force on the same rays.
+    // 3. Grid traversal against brute force, and the fixed-point model against the float
+    //    reference, on the same rays.
     let tracer = Tracer::new(&scene, DEFAULT_CELL)?;
     let set = hemisphere_rays(
         &scene.patches[source as usize],
@@ -597,40 +636,86 @@ fn default_job() -> Result<()> {
         .iter()
         .filter(|r| tracer.trace(r, Some(source)) != tracer.trace_brute(r, Some(source)))
         .count();
-    // Check 2: the reference against Lambert's formula, floor centre → ceiling of the unit cube.
+    let host = crate::fixed::HostFixed::new(&scene, path, cfg.datapath, DEFAULT_CELL)?;
+    let fixed = crate::check::check(&tracer, &host, &set, source, Default::default());
+    // 4. The tracer against Lambert's formula, floor centre → ceiling of the unit cube.
     let (f, truth, sigma) = analytic_check();
+    println!("shellsim: scene2 (808 patches) from patch {source}, machine hw/configs/paper.toml");
     println!();
-    println!("{:<44} {:>14} {:>10}", "check", "value", "verdict");
+    println!("{:<46} {:>16} {:>8}", "check", "value", "verdict");
     let verdict = |ok: bool| if ok { "ok" } else { "FAILED" };
-    println!(
-        "{:<44} {:>14} {:>10}",
-        "rays escaped (enclosure)",
-        report.escaped,
-        verdict(report.escaped == 0)
+    let row = |name: &str, value: String, ok: Option<bool>| {
+        println!("{:<46} {:>16} {:>8}", name, value, ok.map_or("", verdict));
+    };
+    row("machine: rays", m.rays.to_string(), None);
+    row("machine: cycles", m.cycles.to_string(), None);
+    row(
+        "machine: pipeline efficiency",
+        format!("{:.3}", m.pipeline_efficiency),
+        None,
     );
-    println!(
-        "{:<44} {:>14.12} {:>10}",
-        "sum of form factors",
-        report.weight_sum,
-        verdict((report.weight_sum - 1.0).abs() < 1e-9)
+    row(
+        "machine: patch loads / jobs",
+        format!("{} / {}", m.patch_loads, m.jobs),
+        None,
     );
-    println!(
-        "{:<44} {:>14} {:>10}",
-        "grid vs brute-force mismatches",
-        mismatches,
-        verdict(mismatches == 0)
+    row(
+        "machine: memory utilization",
+        format!("{:.3}", m.memory_utilization),
+        None,
     );
-    println!(
-        "{:<44} {:>14.10} {:>10}",
-        format!("F(floor centre→ceiling), 1e5 Malley, ±{:.0e}", 3.0 * sigma),
-        f,
-        verdict((f - truth).abs() <= 3.0 * sigma)
+    row(
+        "machine: work-items moved (balancing)",
+        m.balancer.work_items.to_string(),
+        None,
     );
-    println!("{:<44} {:>14.10}", "  analytic (Lambert)", truth);
+    row(
+        "machine vs untimed fixed-point model",
+        format!("{} differ", m.mismatches_vs_fixed),
+        Some(m.mismatches_vs_fixed == 0),
+    );
+    row(
+        "fixed point vs float: mismatches",
+        fixed.mismatches.to_string(),
+        None,
+    );
+    row(
+        "fixed point vs float: unexplained",
+        fixed.unexplained_mismatches.to_string(),
+        Some(fixed.unexplained_mismatches == 0),
+    );
+    row(
+        "float: rays escaped (enclosure)",
+        report.escaped.to_string(),
+        Some(report.escaped == 0),
+    );
+    row(
+        "float: sum of form factors",
+        format!("{:.12}", report.weight_sum),
+        Some((report.weight_sum - 1.0).abs() < 1e-9),
+    );
+    row(
+        "float: grid vs brute-force mismatches",
+        mismatches.to_string(),
+        Some(mismatches == 0),
+    );
+    row(
+        &format!("float: F(floor centre->ceiling), ±{:.0e}", 3.0 * sigma),
+        format!("{f:.10}"),
+        Some((f - truth).abs() <= 3.0 * sigma),
+    );
+    row("  analytic (Lambert)", format!("{truth:.10}"), None);
     println!();
-    println!("The cycle-level machine, its check against the fixed-point model and its VCD come");
-    println!("with the later issues (see `issues`); this run covers the float reference.");
-    if report.escaped != 0 || mismatches != 0 || (f - truth).abs() > 3.0 * sigma {
+    println!(
+        "waveform: gtkwave waves/default.vcd waves/default.gtkw; statistics: waves/default.json ({:.2} M simulated cycles/s)",
+        m.sim_rate_hz / 1e6
+    );
+    let ok = m.mismatches_vs_fixed == 0
+        && fixed.unexplained_mismatches == 0
+        && report.escaped == 0
+        && mismatches == 0
+        && (f - truth).abs() <= 3.0 * sigma;
+    if !ok {
         return Err(Error::Check(
             "the default run disagrees with its references".into(),
         ));
