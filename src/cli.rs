@@ -38,6 +38,11 @@ pub enum Command {
     /// The shelling partition: low-resolution pass, sections and sectors, shells and
     /// subshells, workloads predicted against actual, patch loads, schedule.
     Partition(crate::partition::PartitionArgs),
+    /// The paper's experiments on the machine: pipeline efficiency with and without
+    /// balancing, efficiency against work-item size, speedup against ICUs (CSV + SVG).
+    Experiment(crate::experiment::cli::ExperimentArgs),
+    /// Regenerate every figure of the paper and a report (report.md) in one command.
+    Paper(crate::experiment::cli::PaperArgs),
 }
 
 #[derive(Subcommand, Debug)]
@@ -407,6 +412,8 @@ pub fn run(cli: Cli) -> Result<()> {
             Ok(())
         }
         Some(Command::Partition(a)) => crate::partition::cli::run(&a),
+        Some(Command::Experiment(a)) => crate::experiment::cli::run_experiment(&a),
+        Some(Command::Paper(a)) => crate::experiment::cli::run_paper(&a),
         Some(Command::Run(a)) => {
             let scene = Scene::load(&a.scene)?;
             let mut cfg = machine_config(a.hw.as_deref())?;

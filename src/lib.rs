@@ -5,6 +5,7 @@ pub mod analytic;
 pub mod check;
 pub mod cli;
 pub mod error;
+pub mod experiment;
 pub mod fixed;
 pub mod gen;
 pub mod grid;

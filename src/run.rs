@@ -141,13 +141,48 @@ pub fn run(
     spec: &RunSpec,
     probe: Option<&mut dyn Probe>,
 ) -> Result<RunOutput> {
-    let Prepared {
+    let prep = prepare(scene, file, cfg, spec)?;
+    simulate(&prep.input(), &scene.name, cfg, spec, probe)
+}
+
+/// What the machine runs on, borrowed: the scene in hardware form, the ray records and the
+/// sectors (`sectors[cluster][ctu]`, each sector's ray ids ascending). Experiments reuse one
+/// [`Prepared`] across configurations, or regroup its sectors.
+#[derive(Clone, Copy)]
+pub struct MachineInput<'a> {
+    pub host: &'a HostFixed,
+    pub records: &'a [RayRecord],
+    pub sectors: &'a [Vec<Vec<u32>>],
+}
+
+impl Prepared {
+    /// The prepared inputs, borrowed.
+    pub fn input(&self) -> MachineInput<'_> {
+        MachineInput {
+            host: &self.host,
+            records: &self.records,
+            sectors: &self.sectors,
+        }
+    }
+}
+
+/// Runs the machine on prepared inputs (`cfg` must have one cluster per section and one CTU
+/// per sector of `input.sectors`), checks each ray against the untimed model and gathers the
+/// statistics. `scene_name` labels them.
+pub fn simulate(
+    input: &MachineInput,
+    scene_name: &str,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+    probe: Option<&mut dyn Probe>,
+) -> Result<RunOutput> {
+    let MachineInput {
         host,
         records,
         sectors,
-    } = prepare(scene, file, cfg, spec)?;
+    } = *input;
     let start = std::time::Instant::now();
-    let mut machine = Machine::new(*cfg, &host.scene, &records, &sectors, spec.source);
+    let mut machine = Machine::new(*cfg, &host.scene, records, sectors, spec.source);
     machine
         .run(spec.order, probe)
         .map_err(|d| Error::Check(d.to_string()))?;
@@ -193,7 +228,7 @@ pub fn run(
         .map(|c| c.patch_requests)
         .sum();
     let stats = RunStats {
-        scene: scene.name.clone(),
+        scene: scene_name.to_string(),
         source: spec.source,
         rays: records.len(),
         cycles,

@@ -1,0 +1,391 @@
+//! SVG charts of the experiments (plotters, SVG backend only, the style of `sweep` and
+//! `partition::chart`): efficiency bars with and without balancing, efficiency and cycles
+//! against work-item size (Fig 12.14), speedup against ICUs beside the ideal and the resource
+//! bound (Fig 12.15).
+//!
+//! **Invariant:** an SVG depends only on the numbers drawn (no timestamps), so a figure is
+//! byte-identical when its runs are.
+
+use super::{Point, SpeedupRow, WorkItemRows};
+use crate::error::{Error, Result};
+use plotters::prelude::*;
+
+const ON: RGBColor = RGBColor(31, 119, 180);
+const OFF: RGBColor = RGBColor(255, 127, 14);
+const BOUND: RGBColor = RGBColor(44, 160, 44);
+const IDEAL: RGBColor = RGBColor(80, 80, 80);
+
+fn draw_err<E: std::fmt::Debug>(e: E) -> Error {
+    Error::Check(format!("drawing a chart: {e:?}"))
+}
+
+/// `v` with an SI suffix: 1234567 → "1.23M".
+fn si(v: f64) -> String {
+    let a = v.abs();
+    if a >= 1e6 {
+        format!("{:.2}M", v / 1e6)
+    } else if a >= 1e3 {
+        format!("{:.0}k", v / 1e3)
+    } else {
+        format!("{v:.0}")
+    }
+}
+
+/// Pipeline efficiency with balancing off and on: one panel per ratio, a bar pair per
+/// cluster count, each bar labelled with its value. `points` as from `experiment::efficiency`.
+pub fn efficiency_svg(title: &str, points: &[Point]) -> Result<String> {
+    let mut ratios: Vec<usize> = points.iter().map(|p| p.ratio).collect();
+    ratios.dedup();
+    let n = ratios.len().max(1);
+    let mut out = String::new();
+    {
+        let root =
+            SVGBackend::with_string(&mut out, (380 * n as u32 + 40, 460)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        let body = root.titled(title, ("sans-serif", 17)).map_err(draw_err)?;
+        for (area, &ratio) in body.split_evenly((1, n)).iter().zip(&ratios) {
+            let ps: Vec<&Point> = points.iter().filter(|p| p.ratio == ratio).collect();
+            let mut clusters: Vec<u32> = ps.iter().map(|p| p.clusters).collect();
+            clusters.dedup();
+            let m = clusters.len().max(1);
+            let mut chart = ChartBuilder::on(area)
+                .caption(
+                    format!(
+                        "Hi_Low_Ratio {ratio} ({} rays)",
+                        ps.first().map_or(0, |p| p.rays)
+                    ),
+                    ("sans-serif", 15),
+                )
+                .margin(10)
+                .x_label_area_size(36)
+                .y_label_area_size(48)
+                .build_cartesian_2d(-0.5f64..(m as f64 - 0.5), 0f64..1.18)
+                .map_err(draw_err)?;
+            let labels = clusters.clone();
+            chart
+                .configure_mesh()
+                .disable_x_mesh()
+                .bold_line_style(BLACK.mix(0.12))
+                .light_line_style(TRANSPARENT)
+                .x_labels(m)
+                .x_label_formatter(&|x| {
+                    let r = x.round();
+                    if (x - r).abs() < 1e-6 && r >= 0.0 && (r as usize) < labels.len() {
+                        format!("P = {}", labels[r as usize])
+                    } else {
+                        String::new()
+                    }
+                })
+                .y_labels(7)
+                .y_label_formatter(&|y| {
+                    if *y <= 1.0 {
+                        format!("{y:.1}")
+                    } else {
+                        String::new()
+                    }
+                })
+                .x_desc("ICUs (clusters)")
+                .y_desc("pipeline efficiency")
+                .label_style(("sans-serif", 12))
+                .axis_desc_style(("sans-serif", 13))
+                .draw()
+                .map_err(draw_err)?;
+            let half = 0.36;
+            for (on, color, name, dx) in [
+                (false, OFF, "static partitioning", -half),
+                (true, ON, "dynamic balancing", 0.0),
+            ] {
+                let bars: Vec<(f64, f64)> = clusters
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(i, &c)| {
+                        ps.iter()
+                            .find(|p| p.clusters == c && p.balance == on)
+                            .map(|p| (i as f64 + dx, p.pipeline_efficiency))
+                    })
+                    .collect();
+                chart
+                    .draw_series(
+                        bars.iter().map(|&(x, v)| {
+                            Rectangle::new([(x, 0.0), (x + half, v)], color.filled())
+                        }),
+                    )
+                    .map_err(draw_err)?
+                    .label(name)
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled())
+                    });
+                chart
+                    .draw_series(bars.iter().map(|&(x, v)| {
+                        Text::new(
+                            format!("{v:.2}"),
+                            (x + 0.02, v + 0.05),
+                            ("sans-serif", 11).into_font(),
+                        )
+                    }))
+                    .map_err(draw_err)?;
+            }
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .label_font(("sans-serif", 11))
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK.mix(0.3))
+                .draw()
+                .map_err(draw_err)?;
+        }
+        root.present().map_err(draw_err)?;
+    }
+    Ok(out)
+}
+
+/// A line with dots and a legend entry.
+fn line<DB: DrawingBackend, X, Y>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<X, Y>>,
+    pts: Vec<(X::ValueType, Y::ValueType)>,
+    color: RGBColor,
+    name: &str,
+    dots: bool,
+) -> Result<()>
+where
+    X: plotters::coord::ranged1d::Ranged,
+    Y: plotters::coord::ranged1d::Ranged,
+    X::ValueType: Clone + 'static,
+    Y::ValueType: Clone + 'static,
+{
+    chart
+        .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+        .map_err(draw_err)?
+        .label(name)
+        .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+    if dots {
+        chart
+            .draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled())))
+            .map_err(draw_err)?;
+    }
+    Ok(())
+}
+
+/// Efficiency (top) and cycles (bottom) against work-item size, balancing on, beside the
+/// static machine's values and the resource bound.
+pub fn work_item_svg(title: &str, rows: &WorkItemRows) -> Result<String> {
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, (900, 760)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        let body = root.titled(title, ("sans-serif", 17)).map_err(draw_err)?;
+        let (top, bottom) = body.split_vertically(360);
+        // x: log2 of the size, labelled with the size.
+        let lg = |p: &Point| (p.work_item_jobs.max(1) as f64).log2();
+        let (lo, hi) = (
+            rows.on.first().map_or(0.0, lg) - 0.5,
+            rows.on.last().map_or(7.0, lg) + 0.5,
+        );
+        let size_label = |x: &f64| {
+            let r = x.round();
+            if (x - r).abs() < 1e-6 && r >= 0.0 {
+                format!("{}", 1u64 << (r as u32).min(62))
+            } else {
+                String::new()
+            }
+        };
+        let ticks = (hi - lo).round() as usize;
+        let mut eff = ChartBuilder::on(&top)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(lo..hi, 0f64..1.0)
+            .map_err(draw_err)?;
+        eff.configure_mesh()
+            .light_line_style(TRANSPARENT)
+            .bold_line_style(BLACK.mix(0.12))
+            .x_labels(ticks)
+            .x_desc("work-item size (jobs)")
+            .y_desc("pipeline efficiency")
+            .x_label_formatter(&size_label)
+            .y_label_formatter(&|y| format!("{y:.1}"))
+            .label_style(("sans-serif", 12))
+            .draw()
+            .map_err(draw_err)?;
+        line(
+            &mut eff,
+            rows.on
+                .iter()
+                .map(|p| (lg(p), p.pipeline_efficiency))
+                .collect(),
+            ON,
+            "dynamic balancing",
+            true,
+        )?;
+        line(
+            &mut eff,
+            vec![
+                (lo, rows.off.pipeline_efficiency),
+                (hi, rows.off.pipeline_efficiency),
+            ],
+            OFF,
+            &format!("static partitioning ({:.3})", rows.off.pipeline_efficiency),
+            false,
+        )?;
+        eff.configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(draw_err)?;
+        let ymax = rows
+            .on
+            .iter()
+            .chain(std::iter::once(&rows.off))
+            .map(|p| p.cycles)
+            .max()
+            .unwrap_or(1) as f64
+            * 1.15;
+        let mut cyc = ChartBuilder::on(&bottom)
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(70)
+            .build_cartesian_2d(lo..hi, 0f64..ymax)
+            .map_err(draw_err)?;
+        cyc.configure_mesh()
+            .light_line_style(TRANSPARENT)
+            .bold_line_style(BLACK.mix(0.12))
+            .x_labels(ticks)
+            .x_desc("work-item size (jobs)")
+            .y_desc("cycles")
+            .x_label_formatter(&size_label)
+            .y_label_formatter(&|y| si(*y))
+            .label_style(("sans-serif", 12))
+            .draw()
+            .map_err(draw_err)?;
+        line(
+            &mut cyc,
+            rows.on.iter().map(|p| (lg(p), p.cycles as f64)).collect(),
+            ON,
+            "dynamic balancing",
+            true,
+        )?;
+        line(
+            &mut cyc,
+            vec![(lo, rows.off.cycles as f64), (hi, rows.off.cycles as f64)],
+            OFF,
+            "static partitioning",
+            false,
+        )?;
+        line(
+            &mut cyc,
+            rows.on
+                .iter()
+                .map(|p| (lg(p), p.bound.cycles() as f64))
+                .collect(),
+            BOUND,
+            &format!(
+                "resource bound (binds: {})",
+                rows.on.first().map_or("-", |p| p.bound.binding().name())
+            ),
+            false,
+        )?;
+        cyc.configure_series_labels()
+            .background_style(WHITE.mix(0.9))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::LowerRight)
+            .draw()
+            .map_err(draw_err)?;
+        root.present().map_err(draw_err)?;
+    }
+    Ok(out)
+}
+
+/// Speedup against ICUs: the whole machine scaled (left) and the same work on P ICUs
+/// (right), each with balancing off and on, the ideal line and the resource bound.
+pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, (1100, 500)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        let body = root.titled(title, ("sans-serif", 17)).map_err(draw_err)?;
+        let panels = body.split_evenly((1, 2));
+        let pmax = rows.iter().map(|r| r.point.clusters).max().unwrap_or(1) as f64;
+        type Pick = fn(&SpeedupRow) -> f64;
+        let specs: [(&str, Pick, Pick); 2] = [
+            (
+                "whole machine: T(1 cluster) / T(P clusters), K CTUs each",
+                |r| r.speedup,
+                |r| r.bound_speedup,
+            ),
+            (
+                "same work: T(1 ICU, the same P×K sectors) / T(P)",
+                |r| r.speedup_same_work,
+                |r| r.bound_speedup_same_work,
+            ),
+        ];
+        for (area, (caption, sp, bound)) in panels.iter().zip(specs) {
+            let ymax = rows
+                .iter()
+                .flat_map(|r| [sp(r), bound(r)])
+                .fold(pmax, f64::max)
+                * 1.1;
+            let mut chart = ChartBuilder::on(area)
+                .caption(caption, ("sans-serif", 14))
+                .margin(12)
+                .x_label_area_size(40)
+                .y_label_area_size(50)
+                .build_cartesian_2d(0.5f64..pmax + 0.5, 0f64..ymax)
+                .map_err(draw_err)?;
+            chart
+                .configure_mesh()
+                .x_desc("ICUs (clusters) P")
+                .y_desc("speedup")
+                .x_label_formatter(&|x| format!("{x:.0}"))
+                .y_label_formatter(&|y| format!("{y:.0}"))
+                .label_style(("sans-serif", 12))
+                .draw()
+                .map_err(draw_err)?;
+            line(
+                &mut chart,
+                vec![(1.0, 1.0), (pmax, pmax)],
+                IDEAL,
+                "ideal (P)",
+                false,
+            )?;
+            let on: Vec<&SpeedupRow> = rows.iter().filter(|r| r.point.balance).collect();
+            line(
+                &mut chart,
+                on.iter()
+                    .map(|r| (r.point.clusters as f64, bound(r)))
+                    .collect(),
+                BOUND,
+                "resource bound, balancing on",
+                true,
+            )?;
+            line(
+                &mut chart,
+                on.iter()
+                    .map(|r| (r.point.clusters as f64, sp(r)))
+                    .collect(),
+                ON,
+                "dynamic balancing",
+                true,
+            )?;
+            line(
+                &mut chart,
+                rows.iter()
+                    .filter(|r| !r.point.balance)
+                    .map(|r| (r.point.clusters as f64, sp(r)))
+                    .collect(),
+                OFF,
+                "static partitioning",
+                true,
+            )?;
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.9))
+                .border_style(BLACK)
+                .position(SeriesLabelPosition::UpperLeft)
+                .draw()
+                .map_err(draw_err)?;
+        }
+        root.present().map_err(draw_err)?;
+    }
+    Ok(out)
+}

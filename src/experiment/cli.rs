@@ -1,0 +1,218 @@
+//! `shellsim experiment efficiency|workitem|speedup` and `shellsim paper`: arguments and jobs.
+
+use super::{chart, stem, Point, SpeedupRow, WorkItemRows, Workload};
+use crate::error::{write_atomic, Result};
+use crate::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// Which experiment.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Which {
+    /// Pipeline efficiency with and without balancing: 2/4/8 ICUs × Hi_Low_Ratio 1/10/30.
+    Efficiency,
+    /// Efficiency and cycles against work-item size (1..128 jobs), 8 ICUs, ratio 10.
+    Workitem,
+    /// Speedup T(1)/T(P) for P = 1, 2, 4, 8, with and without balancing, ideal and bound.
+    Speedup,
+}
+
+impl Which {
+    /// The output files' stem prefix.
+    pub fn name(self) -> &'static str {
+        match self {
+            Which::Efficiency => "efficiency",
+            Which::Workitem => "workitem",
+            Which::Speedup => "speedup",
+        }
+    }
+}
+
+/// Arguments of `shellsim experiment`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ExperimentArgs {
+    /// Which experiment.
+    #[arg(value_enum)]
+    pub which: Which,
+    /// The scene file (.json or .obj).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Machine configuration (TOML); default hw/configs/paper.toml (built in). Clusters,
+    /// balancing and the work-item size are set per run; everything else is kept.
+    #[arg(long)]
+    pub hw: Option<PathBuf>,
+    /// The source patch id.
+    #[arg(long, default_value_t = 0)]
+    pub source: u32,
+    /// Output directory: WHICH-SCENE.csv and WHICH-SCENE.svg.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+}
+
+/// Arguments of `shellsim paper`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct PaperArgs {
+    /// Output directory: report.md, the figures (SVG) and their data (CSV).
+    #[arg(long, default_value = "docs/paper")]
+    pub out: PathBuf,
+}
+
+/// The files one experiment writes, as text.
+pub struct Outputs {
+    pub stem: String,
+    pub csv: String,
+    pub svg: String,
+    /// A short table for the terminal.
+    pub summary: String,
+}
+
+impl Outputs {
+    /// Writes `stem.csv` and `stem.svg` into `dir`.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        write_atomic(&dir.join(format!("{}.csv", self.stem)), self.csv.as_bytes())?;
+        write_atomic(&dir.join(format!("{}.svg", self.stem)), self.svg.as_bytes())
+    }
+}
+
+/// Runs experiment `which` on `w` and renders its CSV and SVG.
+pub fn experiment(which: Which, w: &Workload) -> Result<Outputs> {
+    match which {
+        Which::Efficiency => efficiency_outputs(
+            w,
+            &super::efficiency(w, &super::EFFICIENCY_CLUSTERS, &super::RATIOS)?,
+        ),
+        Which::Workitem => work_item_outputs(
+            w,
+            &super::work_item(
+                w,
+                super::WORK_ITEM_CLUSTERS,
+                super::PAPER_RATIO,
+                &super::WORK_ITEMS,
+            )?,
+        ),
+        Which::Speedup => speedup_outputs(
+            w,
+            &super::speedup(w, &super::SPEEDUP_CLUSTERS, super::PAPER_RATIO)?,
+        ),
+    }
+}
+
+fn stem_of(which: Which, w: &Workload) -> String {
+    format!("{}-{}", which.name(), stem(&w.scene.name))
+}
+
+/// CSV, SVG and summary of the efficiency experiment's points.
+pub fn efficiency_outputs(w: &Workload, pts: &[Point]) -> Result<Outputs> {
+    let mut summary =
+        String::from("ratio  ICUs  efficiency off   on    cycles off        on  binds\n");
+    for pair in pts.chunks(2) {
+        let (off, on) = (&pair[0], &pair[pair.len() - 1]);
+        summary.push_str(&format!(
+            "{:>5} {:>5} {:>15.3} {:>4.3} {:>12} {:>9}  {}\n",
+            off.ratio,
+            off.clusters,
+            off.pipeline_efficiency,
+            on.pipeline_efficiency,
+            off.cycles,
+            on.cycles,
+            on.bound.binding().name()
+        ));
+    }
+    let title = format!(
+        "{} from patch {}: pipeline efficiency, static partitioning vs dynamic balancing",
+        w.scene.name, w.source
+    );
+    Ok(Outputs {
+        stem: stem_of(Which::Efficiency, w),
+        csv: super::points_csv(pts),
+        svg: chart::efficiency_svg(&title, pts)?,
+        summary,
+    })
+}
+
+/// CSV, SVG and summary of the work-item experiment.
+pub fn work_item_outputs(w: &Workload, rows: &WorkItemRows) -> Result<Outputs> {
+    let mut summary = format!(
+        "static: efficiency {:.3}, {} cycles\nwork-item  efficiency    cycles  jobs moved\n",
+        rows.off.pipeline_efficiency, rows.off.cycles
+    );
+    for p in &rows.on {
+        summary.push_str(&format!(
+            "{:>9} {:>11.3} {:>9} {:>11}\n",
+            p.work_item_jobs, p.pipeline_efficiency, p.cycles, p.jobs_moved
+        ));
+    }
+    if !rows.skipped.is_empty() {
+        summary.push_str(&format!(
+            "left out (larger than the ray buffer): {:?}\n",
+            rows.skipped
+        ));
+    }
+    let title = format!(
+        "{}: efficiency and cycles vs work-item size ({} ICUs, Hi_Low_Ratio {})",
+        w.scene.name, rows.off.clusters, rows.off.ratio
+    );
+    Ok(Outputs {
+        stem: stem_of(Which::Workitem, w),
+        csv: super::work_item_csv(rows),
+        svg: chart::work_item_svg(&title, rows)?,
+        summary,
+    })
+}
+
+/// CSV, SVG and summary of the speedup experiment.
+pub fn speedup_outputs(w: &Workload, rows: &[SpeedupRow]) -> Result<Outputs> {
+    let mut summary =
+        String::from("   P  balance   cycles  speedup  same-work  bound(same work)  binds\n");
+    for r in rows {
+        summary.push_str(&format!(
+            "{:>4} {:>8} {:>8} {:>8.2} {:>10.2} {:>17.2}  {}\n",
+            r.point.clusters,
+            if r.point.balance { "on" } else { "off" },
+            r.point.cycles,
+            r.speedup,
+            r.speedup_same_work,
+            r.bound_speedup_same_work,
+            r.point.bound.binding().name()
+        ));
+    }
+    let title = format!(
+        "{}: speedup vs ICUs (Hi_Low_Ratio {})",
+        w.scene.name,
+        rows.first().map_or(0, |r| r.point.ratio)
+    );
+    Ok(Outputs {
+        stem: stem_of(Which::Speedup, w),
+        csv: super::speedup_csv(rows),
+        svg: chart::speedup_svg(&title, rows)?,
+        summary,
+    })
+}
+
+/// Runs `shellsim experiment`.
+pub fn run_experiment(a: &ExperimentArgs) -> Result<()> {
+    let scene = Scene::load(&a.scene)?;
+    let base = crate::cli::machine_config(a.hw.as_deref())?;
+    let w = Workload {
+        scene: &scene,
+        file: &a.scene,
+        source: a.source,
+        base: &base,
+    };
+    let out = experiment(a.which, &w)?;
+    print!("{}", out.summary);
+    out.write(&a.out)?;
+    println!("wrote {}/{}.csv and .svg", a.out.display(), out.stem);
+    Ok(())
+}
+
+/// Runs `shellsim paper`.
+pub fn run_paper(a: &PaperArgs) -> Result<()> {
+    let start = std::time::Instant::now();
+    super::paper::paper(&a.out)?;
+    println!(
+        "wrote {}/report.md ({:.0} s)",
+        a.out.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
