@@ -1,0 +1,284 @@
+//! The paper's experiments: dynamic balancing beats static partitioning where the paper says
+//! it should (scene2, stress-skewed); random machine configurations with balancing finish,
+//! equal the untimed model and lose or duplicate no job; the experiments' CSV and SVG are
+//! byte-identical across runs, the speedup at P = 1 is exactly 1 and no run beats its
+//! resource bound.
+
+mod common;
+
+use proptest::prelude::*;
+use shellsim::experiment::{
+    self, chart,
+    cli::{speedup_outputs, Which},
+    Point, Workload,
+};
+use shellsim::run::{run, RunSpec};
+use shellsim_hw::machine::TickOrder;
+use shellsim_hw::machine_config::{ArbiterPolicy, MachineConfig, VictimPolicy};
+use std::path::Path;
+use std::process::Command;
+
+fn paper_config() -> MachineConfig {
+    shellsim::cli::machine_config(None).unwrap()
+}
+
+/// Static and balanced runs of `file` at `clusters` clusters and `ratio` on paper.toml.
+fn static_and_balanced(file: &str, clusters: u32, ratio: usize) -> (Point, Point) {
+    let scene = common::load(file);
+    let base = paper_config();
+    let path = common::scene_path(file);
+    let w = Workload {
+        scene: &scene,
+        file: &path,
+        source: 0,
+        base: &base,
+    };
+    let prep = experiment::prepare(&w, &experiment::machine(&base, clusters, false), ratio)
+        .unwrap_or_else(|e| panic!("{file}: {e}"));
+    let run = |on| {
+        experiment::measure(
+            &w,
+            &prep.input(),
+            &experiment::machine(&base, clusters, on),
+            ratio,
+        )
+        .unwrap_or_else(|e| panic!("{file}: {e}"))
+    };
+    (run(false), run(true))
+}
+
+/// Balancing raises pipeline efficiency and cuts cycles at 8 ICUs, Hi_Low_Ratio 10, on the
+/// paper's machine (hw/configs/paper.toml), on scene2 and on stress-skewed.
+#[test]
+fn balancing_beats_static_partitioning_on_scene2_and_stress_skewed() {
+    for file in ["scene2.json", "stress-skewed.json"] {
+        let (off, on) = static_and_balanced(file, 8, 10);
+        let msg = format!(
+            "{file}, 8 ICUs, ratio 10, paper.toml: efficiency static {:.4} balanced {:.4}, cycles static {} balanced {} ({} jobs moved)",
+            off.pipeline_efficiency, on.pipeline_efficiency, off.cycles, on.cycles, on.jobs_moved
+        );
+        eprintln!("{msg}");
+        assert!(
+            on.pipeline_efficiency > off.pipeline_efficiency,
+            "efficiency: {msg}"
+        );
+        assert!(on.cycles < off.cycles, "cycles: {msg}");
+        assert!(on.jobs_moved > 0, "balancing moved nothing: {msg}");
+        // The partition and the work are shared: only the timing differs.
+        assert_eq!(
+            (off.jobs, off.patch_loads),
+            (on.jobs, on.patch_loads),
+            "{msg}"
+        );
+        for p in [&off, &on] {
+            assert!(p.bound.cycles() <= p.cycles, "bound above cycles: {p:?}");
+        }
+    }
+}
+
+/// A random machine with balancing (mostly on) and small, back-pressuring buffers.
+#[derive(Clone, Debug)]
+struct Random {
+    cornell: bool,
+    clusters: u32,
+    ctus: u32,
+    balance: bool,
+    ray_buffer: u32,
+    work_item: u32,
+    sampling: u32,
+    link_latency: u32,
+    link_width: u32,
+    round_robin_victim: bool,
+    patch_buffer: u32,
+    request_queue: u32,
+    fixed_priority: bool,
+    jump: bool,
+}
+
+impl Random {
+    fn config(&self) -> MachineConfig {
+        let mut c = paper_config();
+        let m = &mut c.machine;
+        m.clusters = self.clusters;
+        m.ctus_per_cluster = self.ctus;
+        m.ray_buffer_capacity = self.ray_buffer;
+        m.patch_buffer_capacity = self.patch_buffer;
+        m.request_queue_capacity = self.request_queue;
+        m.arbiter = if self.fixed_priority {
+            ArbiterPolicy::FixedPriority
+        } else {
+            ArbiterPolicy::RoundRobin
+        };
+        m.cycle_jump = self.jump;
+        let b = &mut c.balance;
+        b.enabled = self.balance;
+        b.work_item_jobs = self.work_item;
+        b.sampling_interval = self.sampling;
+        b.link_latency = self.link_latency;
+        b.link_words_per_cycle = self.link_width;
+        b.victim = if self.round_robin_victim {
+            VictimPolicy::RoundRobin
+        } else {
+            VictimPolicy::MostPending
+        };
+        c.validate().expect("a valid random configuration");
+        c
+    }
+}
+
+fn random() -> impl Strategy<Value = Random> {
+    (
+        (
+            any::<bool>(),
+            1u32..=8,
+            1u32..=4,
+            prop::bool::weighted(0.85),
+        ),
+        (1u32..=64, 1u32..=128, 1u32..=64),
+        (0u32..=24, 1u32..=4, any::<bool>()),
+        (1u32..=8, 1u32..=3, any::<bool>(), any::<bool>()),
+    )
+        .prop_map(
+            |(
+                (cornell, clusters, ctus, balance),
+                (ray_buffer, work_item, sampling),
+                (link_latency, link_width, round_robin_victim),
+                (patch_buffer, request_queue, fixed_priority, jump),
+            )| Random {
+                cornell,
+                clusters,
+                ctus,
+                balance,
+                ray_buffer,
+                // A work-item fits the ray buffer.
+                work_item: 1 + (work_item - 1) % ray_buffer,
+                sampling,
+                link_latency,
+                link_width,
+                round_robin_victim,
+                patch_buffer,
+                request_queue,
+                fixed_priority,
+                jump,
+            },
+        )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 20, ..ProptestConfig::default() })]
+
+    /// Any configuration finishes (no deadlock), equals the untimed model ray for ray, and
+    /// computes every job exactly once: Σ ICU jobs_in = jobs issued = Σ CTU results; jobs
+    /// moved by the balancer = jobs given by ray buffers; results sent home = results
+    /// returned.
+    #[test]
+    fn random_balanced_machines_are_exact(r in random()) {
+        let (file, source) = if r.cornell { ("cornell.json", 1) } else { ("scene1.json", 0) };
+        let scene = common::load(file);
+        let spec = RunSpec { source, ratio: 1, cell: 0.05, order: TickOrder::Forward };
+        let out = run(&scene, Path::new(file), &r.config(), &spec, None)
+            .unwrap_or_else(|e| panic!("{file} {r:?}: {e}"));
+        let s = &out.stats;
+        prop_assert_eq!(s.mismatches_vs_fixed, 0, "{} {:?}", file, r);
+        prop_assert!(out.hits == out.reference, "{} {:?}: hits differ", file, r);
+        let icu_in: u64 = s.clusters.iter().map(|c| c.icu.jobs_in).sum();
+        let icu_out: u64 = s.clusters.iter().map(|c| c.icu.results_out).sum();
+        let results: u64 = s.clusters.iter().flat_map(|c| &c.ctus).map(|c| c.results).sum();
+        prop_assert_eq!((icu_in, icu_out, results), (s.jobs, s.jobs, s.jobs), "{} {:?}", file, r);
+        let given: u64 = s.clusters.iter().map(|c| c.ray_buffer.jobs_given).sum();
+        prop_assert_eq!(s.balancer.jobs_moved, given, "{} {:?}", file, r);
+        let remote: u64 = s.clusters.iter().map(|c| c.icu.remote_results_out).sum();
+        prop_assert_eq!(s.balancer.results_returned, remote, "{} {:?}", file, r);
+        if !r.balance || r.clusters == 1 {
+            prop_assert_eq!(s.balancer.jobs_moved, 0, "{} {:?}", file, r);
+        }
+        let p = Point::new(s, &r.config(), 1);
+        prop_assert!(p.bound.cycles() <= s.cycles, "{} {:?}: bound {:?} above {} cycles", file, r, p.bound, s.cycles);
+    }
+}
+
+/// The speedup experiment twice on scene1: byte-identical CSV and SVG; the speedup at P = 1
+/// is exactly 1 (whole machine and same work, balancing off and on); no run beats its bound.
+#[test]
+fn experiments_are_deterministic_and_speedup_starts_at_one() {
+    let scene = common::load("scene1.json");
+    let base = paper_config();
+    let path = common::scene_path("scene1.json");
+    let w = Workload {
+        scene: &scene,
+        file: &path,
+        source: 0,
+        base: &base,
+    };
+    let a = experiment::speedup(&w, &[1, 2, 8], 1).unwrap();
+    let b = experiment::speedup(&w, &[1, 2, 8], 1).unwrap();
+    let (oa, ob) = (
+        speedup_outputs(&w, &a).unwrap(),
+        speedup_outputs(&w, &b).unwrap(),
+    );
+    assert_eq!(oa.csv, ob.csv, "speedup CSV differs between runs");
+    assert_eq!(oa.svg, ob.svg, "speedup SVG differs between runs");
+    let p1: Vec<_> = a.iter().filter(|r| r.point.clusters == 1).collect();
+    assert_eq!(p1.len(), 2, "P = 1 with balancing off and on");
+    for r in &p1 {
+        assert_eq!(r.speedup, 1.0, "{r:?}");
+        assert_eq!(r.speedup_same_work, 1.0, "{r:?}");
+    }
+    assert!(oa.csv.lines().nth(1).unwrap().contains(",1.000000,"));
+    for r in &a {
+        assert!(r.point.bound.cycles() <= r.point.cycles, "{r:?}");
+        assert!(r.bound_speedup >= r.speedup, "{r:?}");
+    }
+    let e1 = experiment::efficiency(&w, &[2, 4], &[1]).unwrap();
+    let e2 = experiment::efficiency(&w, &[2, 4], &[1]).unwrap();
+    assert_eq!(experiment::points_csv(&e1), experiment::points_csv(&e2));
+    assert_eq!(
+        chart::efficiency_svg("t", &e1).unwrap(),
+        chart::efficiency_svg("t", &e2).unwrap()
+    );
+    let wi = experiment::work_item(&w, 4, 1, &[1, 8, 512]).unwrap();
+    assert_eq!(
+        wi.skipped,
+        vec![512],
+        "a work-item larger than the ray buffer"
+    );
+    assert_eq!(wi.on.len(), 2);
+    assert!(!wi.off.balance && wi.on.iter().all(|p| p.balance));
+}
+
+/// The CLI writes WHICH-SCENE.csv and .svg, byte-identical across runs; a bad source exits 2.
+#[test]
+fn cli_writes_csv_and_svg() {
+    let exe = env!("CARGO_BIN_EXE_shellsim");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scene_path("cornell.json");
+    let go = |out: &Path| {
+        Command::new(exe)
+            .args(["experiment", Which::Workitem.name()])
+            .arg("--scene")
+            .arg(&scene)
+            .args(["--source", "1", "--out"])
+            .arg(out)
+            .output()
+            .unwrap()
+    };
+    let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+    for d in [&a, &b] {
+        let o = go(d);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    for f in ["workitem-cornell.csv", "workitem-cornell.svg"] {
+        let x = std::fs::read(a.join(f)).unwrap();
+        assert!(!x.is_empty(), "{f}");
+        assert_eq!(x, std::fs::read(b.join(f)).unwrap(), "{f} differs");
+    }
+    let o = Command::new(exe)
+        .args(["experiment", "speedup", "--source", "999", "--scene"])
+        .arg(&scene)
+        .arg("--out")
+        .arg(dir.path().join("c"))
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{o:?}");
+    assert!(!dir.path().join("c").exists());
+}
