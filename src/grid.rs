@@ -176,13 +176,15 @@ impl Grid {
     pub fn coord(&self, axis: usize, x: f64) -> usize {
         let b = &self.boundaries[axis];
         let n = self.dims[axis];
-        let f = ((x - self.lo[axis]) * self.inv_cell).floor();
-        let mut i = if f.is_nan() || f < 0.0 {
+        // floor(s) without a libm call: for 0 <= s < n truncation is the floor, and
+        // floor(s) < 0 iff s < 0, floor(s) >= n iff s >= n; NaN goes to cell 0.
+        let s = (x - self.lo[axis]) * self.inv_cell;
+        let mut i = if !(s >= 0.0) {
             0
-        } else if f >= n as f64 {
+        } else if s >= n as f64 {
             n - 1
         } else {
-            f as usize
+            s as usize
         };
         if i > 0 && x < b[i] {
             i -= 1;

@@ -34,6 +34,10 @@ pub struct PreparedRay {
     kz: usize,
     sx: f64,
     sy: f64,
+    /// The origin's permuted coordinates `o[kx], o[ky], o[kz]`.
+    okx: f64,
+    oky: f64,
+    okz: f64,
 }
 
 impl PreparedRay {
@@ -68,17 +72,25 @@ impl PreparedRay {
             kz,
             sx: d[kx] / d[kz],
             sy: d[ky] / d[kz],
+            okx: ray.o[kx],
+            oky: ray.o[ky],
+            okz: ray.o[kz],
         }
     }
 
-    /// A point in ray space (2D: the ray itself is the origin).
-    #[inline]
-    fn project(&self, v: DVec3) -> (f64, f64) {
-        let p = v - self.o;
-        (
-            p[self.kx] - self.sx * p[self.kz],
-            p[self.ky] - self.sy * p[self.kz],
-        )
+    /// Corners in ray space (2D: the ray itself is the origin), from their coordinate rows:
+    /// `p = v − o`, then `(p[kx] − sx·p[kz], p[ky] − sy·p[kz])`.
+    #[inline(always)]
+    fn project(&self, rows: &[[f64; 4]; 3]) -> ([f64; 4], [f64; 4]) {
+        let (vx, vy, vz) = (&rows[self.kx], &rows[self.ky], &rows[self.kz]);
+        let mut px = [0.0; 4];
+        let mut py = [0.0; 4];
+        for i in 0..4 {
+            let pz = vz[i] - self.okz;
+            px[i] = (vx[i] - self.okx) - self.sx * pz;
+            py[i] = (vy[i] - self.oky) - self.sy * pz;
+        }
+        (px, py)
     }
 }
 
@@ -107,6 +119,10 @@ pub struct PatchGeom {
     pub offset: f64,
 }
 
+/// Shewchuk's orient2d error bound (3u + 16u²) rounded up: `|p − q|` above this times
+/// `|p| + |q|` has the sign of the exact `p − q`.
+const DET2_BOUND: f64 = 3.330_669_073_875_472e-16;
+
 /// The sign of `ax·by − ay·bx`, exact: a filtered product difference, with Kahan's FMA
 /// algorithm (error under 2 ulp, so its sign is right and it is zero only when exact zero)
 /// when the filter cannot decide.
@@ -115,8 +131,7 @@ fn det2_sign(ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
     let p = ax * by;
     let q = ay * bx;
     let e = p - q;
-    // Shewchuk's orient2d error bound (3u + 16u²) rounded up.
-    let bound = 3.330_669_073_875_472e-16 * (p.abs() + q.abs());
+    let bound = DET2_BOUND * (p.abs() + q.abs());
     if e.abs() > bound {
         return e;
     }
@@ -130,6 +145,66 @@ fn det2_sign(ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
 #[inline]
 fn top_left(dx: f64, dy: f64) -> bool {
     dy > 0.0 || (dy == 0.0 && dx < 0.0)
+}
+
+/// Watertight inside test on ray-space corners `(px[k], py[k])` of a polygon of `n` (3 or 4)
+/// vertices — a triangle's corner 3 repeats corner 0.
+#[inline(always)]
+fn inside_projected(px: &[f64; 4], py: &[f64; 4], n: usize) -> bool {
+    // Edge functions e_k = p_k × p_{k+1} (quad edges; edge 3 closes a triangle's 2 → 0 → 0
+    // with the degenerate 0 → 0, which bounds nothing) and their filter bounds, branch-free.
+    let mut e = [0.0f64; 4];
+    let mut certain = [false; 4];
+    for k in 0..4 {
+        let j = (k + 1) % 4;
+        let p = px[k] * py[j];
+        let q = py[k] * px[j];
+        e[k] = p - q;
+        certain[k] = e[k].abs() > DET2_BOUND * (p.abs() + q.abs());
+    }
+    // Fast path: every sign certain (so none zero), as det2_sign would return them.
+    let tri = n == 3;
+    if certain[0] & certain[1] & certain[2] & (tri | certain[3]) {
+        let pos = (e[0] > 0.0) & (e[1] > 0.0) & (e[2] > 0.0) & (tri | (e[3] > 0.0));
+        let neg = (e[0] < 0.0) & (e[1] < 0.0) & (e[2] < 0.0) & (tri | (e[3] < 0.0));
+        return pos | neg;
+    }
+    inside_exact(px, py, n)
+}
+
+/// The inside test with every sign exact and the fill rule on zero edges: the general path
+/// of [`inside_projected`], taken when the filter cannot decide some edge.
+#[cold]
+#[inline(never)]
+fn inside_exact(px: &[f64; 4], py: &[f64; 4], n: usize) -> bool {
+    // Edge functions: e_k > 0 when the ray lies left of edge k → k+1.
+    let mut e = [0.0f64; 4];
+    let (mut pos, mut neg) = (false, false);
+    for k in 0..n {
+        let j = (k + 1) % n;
+        e[k] = det2_sign(px[k], py[k], px[j], py[j]);
+        pos |= e[k] > 0.0;
+        neg |= e[k] < 0.0;
+    }
+    if pos == neg {
+        // Both signs (outside) or all zero (edge-on).
+        return false;
+    }
+    let orient = if pos { 1.0 } else { -1.0 };
+    for k in 0..n {
+        if e[k] == 0.0 {
+            let j = (k + 1) % n;
+            let (dx, dy) = (px[j] - px[k], py[j] - py[k]);
+            if dx == 0.0 && dy == 0.0 {
+                // The edge projects to a point: it bounds nothing.
+                continue;
+            }
+            if !top_left(orient * dx, orient * dy) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 impl PatchGeom {
@@ -157,41 +232,9 @@ impl PatchGeom {
     /// Watertight inside test: does the ray's line pass through the polygon?
     #[inline]
     pub fn inside(&self, r: &PreparedRay) -> bool {
-        let n = self.n_verts as usize;
-        let mut p = [(0.0, 0.0); 4];
-        for (q, v) in p.iter_mut().zip(&self.v[..n]) {
-            *q = r.project(*v);
-        }
-        // Edge functions: e_k > 0 when the ray lies left of edge k → k+1.
-        let mut e = [0.0f64; 4];
-        let (mut pos, mut neg) = (false, false);
-        for k in 0..n {
-            let a = p[k];
-            let b = p[(k + 1) % n];
-            e[k] = det2_sign(a.0, a.1, b.0, b.1);
-            pos |= e[k] > 0.0;
-            neg |= e[k] < 0.0;
-        }
-        if pos == neg {
-            // Both signs (outside) or all zero (edge-on).
-            return false;
-        }
-        let orient = if pos { 1.0 } else { -1.0 };
-        for k in 0..n {
-            if e[k] == 0.0 {
-                let a = p[k];
-                let b = p[(k + 1) % n];
-                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-                if dx == 0.0 && dy == 0.0 {
-                    // The edge projects to a point: it bounds nothing.
-                    continue;
-                }
-                if !top_left(orient * dx, orient * dy) {
-                    return false;
-                }
-            }
-        }
-        true
+        let c = Corners::new(self);
+        let (px, py) = r.project(&c.rows);
+        inside_projected(&px, &py, c.n)
     }
 
     /// The hit of `r` on this patch if it is nearer than `best` (tie rule of [`Hit::beats`]).
@@ -222,6 +265,34 @@ impl PatchGeom {
     }
 }
 
+/// A patch's plane, all that most tests read: 32 bytes, one per cache-line quarter.
+#[derive(Clone, Copy, Debug)]
+#[repr(align(32))]
+struct Plane {
+    normal: DVec3,
+    offset: f64,
+}
+
+/// A patch's corners as coordinate rows (x, y, z of corners 0..3; a triangle's corner 3
+/// repeats corner 0), for the inside test.
+#[derive(Clone, Copy, Debug)]
+struct Corners {
+    rows: [[f64; 4]; 3],
+    n: usize,
+}
+
+impl Corners {
+    #[inline(always)]
+    fn new(p: &PatchGeom) -> Self {
+        let n = if p.n_verts == 3 { 3 } else { 4 };
+        let v = [p.v[0], p.v[1], p.v[2], if n == 3 { p.v[0] } else { p.v[3] }];
+        Corners {
+            rows: [0, 1, 2].map(|a| v.map(|x| x[a])),
+            n,
+        }
+    }
+}
+
 /// Work done by one traversal, as the machine would count it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TraceCounts {
@@ -233,11 +304,48 @@ pub struct TraceCounts {
     pub tests: u32,
 }
 
+/// No patch: patch ids are below [`crate::scene::MAX_PATCHES`].
+const NO_PATCH: u32 = u32::MAX;
+
+/// The best hit before any: every hit beats it (its t is finite and less than +inf).
+const NO_HIT: Hit = Hit {
+    patch: NO_PATCH,
+    t: f64::INFINITY,
+};
+
+/// A per-ray filter of patches already tested (mailboxing): a patch listed in several cells
+/// would be tested again with the same ray, giving the same t and the same answer, and a
+/// best hit that can only have improved since — so skipping the repeat changes nothing.
+/// Direct-mapped on the low bits of the id; a collision only evicts, costing a repeat test.
+struct Mailbox([u32; Mailbox::SLOTS]);
+
+impl Mailbox {
+    const SLOTS: usize = 32;
+
+    #[inline]
+    fn new() -> Self {
+        Mailbox([NO_PATCH; Self::SLOTS])
+    }
+
+    /// True if `id` was tested already on this ray; records it otherwise.
+    #[inline]
+    fn seen(&mut self, id: u32) -> bool {
+        let slot = &mut self.0[id as usize % Self::SLOTS];
+        let hit = *slot == id;
+        *slot = id;
+        hit
+    }
+}
+
 /// The float reference tracer: prepared patches and the grid.
 #[derive(Clone, Debug)]
 pub struct Tracer {
+    /// The prepared patches (read-only: the tracer tests copies laid out for speed).
     pub patches: Vec<PatchGeom>,
     pub grid: Grid,
+    /// Per patch: its plane, and its corners (split so that rejections touch little memory).
+    planes: Vec<Plane>,
+    corners: Vec<Corners>,
     /// Slack of the stopping rule, in units of length (see `trace_counted`).
     slack_len: f64,
 }
@@ -247,37 +355,73 @@ impl Tracer {
     pub fn new(scene: &Scene, cell_size: f64) -> crate::Result<Tracer> {
         let grid = Grid::build(scene, cell_size)?;
         let diag = grid.aabb().extent().length();
+        let patches: Vec<PatchGeom> = scene.patches.iter().map(PatchGeom::new).collect();
         Ok(Tracer {
-            patches: scene.patches.iter().map(PatchGeom::new).collect(),
+            planes: patches
+                .iter()
+                .map(|p| Plane {
+                    normal: p.normal,
+                    offset: p.offset,
+                })
+                .collect(),
+            corners: patches.iter().map(Corners::new).collect(),
+            patches,
             grid,
             slack_len: 1e-9 * diag,
         })
     }
 
+    /// Tests patch `id` against `r` and makes it the best hit if it is nearer: the same t and
+    /// the same answer as [`PatchGeom::intersect_if_nearer`], with cheap rejections first.
+    #[inline(always)]
+    fn test(&self, r: &PreparedRay, id: u32, best: &mut Hit) {
+        let pl = &self.planes[id as usize];
+        // Plane crossing t = num / den, the operations of `plane_t`.
+        let num = pl.offset - pl.normal.dot(r.o);
+        let den = pl.normal.dot(r.d);
+        // t > 0 needs num and den nonzero and of one sign: decided before dividing.
+        if !((num > 0.0 && den > 0.0) || (num < 0.0 && den < 0.0)) {
+            return;
+        }
+        // The exact t: it must be finite and positive (the quotient may overflow or
+        // underflow) and beat the best hit by the tie rule.
+        let h = Hit {
+            patch: id,
+            t: num / den,
+        };
+        if !(h.t > 0.0 && h.t < f64::INFINITY && h.beats(best)) {
+            return;
+        }
+        // Watertight inside test on the corners in ray space.
+        let c = &self.corners[id as usize];
+        let (px, py) = r.project(&c.rows);
+        if inside_projected(&px, &py, c.n) {
+            *best = h;
+        }
+    }
+
     /// Nearest hit by testing every patch (except `exclude`).
     pub fn trace_brute(&self, ray: &Ray, exclude: Option<u32>) -> Option<Hit> {
         let r = PreparedRay::new(ray);
-        let mut best = None;
-        for (id, p) in self.patches.iter().enumerate() {
-            let id = id as u32;
-            if Some(id) == exclude {
-                continue;
-            }
-            if let Some(h) = p.intersect_if_nearer(&r, id, &best) {
-                best = Some(h);
+        let exclude = exclude.unwrap_or(NO_PATCH);
+        let mut best = NO_HIT;
+        for id in 0..self.planes.len() as u32 {
+            if id != exclude {
+                self.test(&r, id, &mut best);
             }
         }
-        best
+        (best.patch != NO_PATCH).then_some(best)
     }
 
     /// Every patch the ray's half-line `t > 0` hits, sorted by (t, id): for watertightness checks.
     pub fn hits_all(&self, ray: &Ray) -> Vec<Hit> {
         let r = PreparedRay::new(ray);
-        let mut v: Vec<Hit> = self
-            .patches
-            .iter()
-            .enumerate()
-            .filter_map(|(id, p)| p.intersect(&r, id as u32))
+        let mut v: Vec<Hit> = (0..self.planes.len() as u32)
+            .filter_map(|id| {
+                let mut h = NO_HIT;
+                self.test(&r, id, &mut h);
+                (h.patch != NO_PATCH).then_some(h)
+            })
             .collect();
         v.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.patch.cmp(&b.patch)));
         v
@@ -309,34 +453,36 @@ impl Tracer {
         };
         let r = PreparedRay::new(ray);
         let slack_t = self.slack_len / ray.d.length();
-        let mut best: Option<Hit> = None;
+        let exclude = exclude.unwrap_or(NO_PATCH);
+        let mut mailbox = Mailbox::new();
+        let mut best = NO_HIT;
         loop {
+            // Test the cell's patches (counted as the machine would, repeats included).
             let list = self.grid.patches_in(dda.cell());
             if COUNT {
                 counts.cells += 1;
                 counts.nonempty_cells += (!list.is_empty()) as u32;
             }
             for &id in list {
-                if Some(id) == exclude {
+                if id == exclude {
                     continue;
                 }
                 if COUNT {
                     counts.tests += 1;
                 }
-                if let Some(h) = self.patches[id as usize].intersect_if_nearer(&r, id, &best) {
-                    best = Some(h);
+                if !mailbox.seen(id) {
+                    self.test(&r, id, &mut best);
                 }
             }
-            if let Some(b) = best {
-                if dda.t_exit() > b.t + slack_t {
-                    break;
-                }
+            // Stop once the next cell starts beyond the best hit and its slack.
+            if best.patch != NO_PATCH && dda.t_exit() > best.t + slack_t {
+                break;
             }
             if !dda.step() {
                 break;
             }
         }
-        (best, counts)
+        ((best.patch != NO_PATCH).then_some(best), counts)
     }
 
     /// Calls `f(cell, t_enter, t_exit)` for every cell the ray passes through, in order,
@@ -366,7 +512,14 @@ pub struct Dda<'g> {
     o: DVec3,
     inv: DVec3,
     c: [usize; 3],
-    step: [isize; 3],
+    /// The current cell's linear index, kept in step with `c`.
+    idx: usize,
+    /// Per axis: the linear-index change of one step (0 for a zero component).
+    stride: [isize; 3],
+    /// Per axis: the last coordinate before the ray leaves the grid.
+    last: [usize; 3],
+    /// Per axis: 1 when stepping up (the exit boundary is `b[c + 1]`), else 0 (`b[c]`).
+    up: [usize; 3],
     t_max: [f64; 3],
     t_enter: f64,
     /// Where the ray leaves the grid's box.
@@ -397,17 +550,24 @@ impl<'g> Dda<'g> {
         if t0 > t1 || t0.is_nan() || t1.is_nan() {
             return None;
         }
+        // The entry cell, and per axis the stride, the exit boundary and the first crossing.
         let start = if t0 > 0.0 { ray.o + ray.d * t0 } else { ray.o };
+        let dims = grid.dims;
+        let axis_stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
         let mut c = [0usize; 3];
-        let mut step = [0isize; 3];
+        let mut stride = [0isize; 3];
+        let mut last = [0usize; 3];
+        let mut up = [0usize; 3];
         let mut t_max = [f64::INFINITY; 3];
         for a in 0..3 {
             c[a] = grid.coord(a, start[a]);
             if ray.d[a] > 0.0 {
-                step[a] = 1;
+                stride[a] = axis_stride[a];
+                last[a] = dims[a] - 1;
+                up[a] = 1;
                 t_max[a] = (grid.boundaries[a][c[a] + 1] - ray.o[a]) * inv[a];
             } else if ray.d[a] < 0.0 {
-                step[a] = -1;
+                stride[a] = -axis_stride[a];
                 t_max[a] = (grid.boundaries[a][c[a]] - ray.o[a]) * inv[a];
             }
         }
@@ -416,7 +576,10 @@ impl<'g> Dda<'g> {
             o: ray.o,
             inv,
             c,
-            step,
+            idx: grid.index(c),
+            stride,
+            last,
+            up,
             t_max,
             t_enter: t0,
             t_end: t1,
@@ -426,7 +589,7 @@ impl<'g> Dda<'g> {
     /// The current cell's linear index.
     #[inline]
     pub fn cell(&self) -> usize {
-        self.grid.index(self.c)
+        self.idx
     }
 
     /// The current cell's coordinates.
@@ -466,21 +629,19 @@ impl<'g> Dda<'g> {
     pub fn step(&mut self) -> bool {
         let a = self.next_axis();
         let t_next = self.t_max[a];
+        // Leaving the box, or no axis left to step (every component zero).
         if t_next > self.t_end || t_next == f64::INFINITY {
             return false;
         }
-        let ni = self.c[a] as isize + self.step[a];
-        if ni < 0 || ni >= self.grid.dims[a] as isize {
+        // Leaving the grid through its last cell on this axis.
+        if self.c[a] == self.last[a] {
             return false;
         }
-        let b = &self.grid.boundaries[a];
-        self.c[a] = ni as usize;
+        // Move one cell and compute the axis's next crossing from the boundary table.
+        self.c[a] = self.c[a].wrapping_add_signed(self.stride[a].signum());
+        self.idx = self.idx.wrapping_add_signed(self.stride[a]);
         self.t_enter = t_next;
-        self.t_max[a] = if self.step[a] > 0 {
-            (b[self.c[a] + 1] - self.o[a]) * self.inv[a]
-        } else {
-            (b[self.c[a]] - self.o[a]) * self.inv[a]
-        };
+        self.t_max[a] = (self.grid.boundaries[a][self.c[a] + self.up[a]] - self.o[a]) * self.inv[a];
         true
     }
 }
