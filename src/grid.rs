@@ -39,6 +39,9 @@ pub struct Grid {
     pub inv_cell: f64,
     /// Cell boundaries per axis: `bounds[a][i] = lo[a] + i / inv_cell`, `i = 0..=dims[a]`.
     pub boundaries: [Vec<f64>; 3],
+    /// The same boundaries in descending order (`boundaries_desc[a][k] = bounds[a][dims[a] − k]`),
+    /// so that a ray stepping down an axis reads its crossings front to back.
+    boundaries_desc: [Vec<f64>; 3],
     /// `offsets[c]..offsets[c + 1]` indexes `ids` for cell `c` (x fastest, then y, then z).
     offsets: Vec<u32>,
     /// Patch ids of all cells, ascending within a cell.
@@ -119,12 +122,14 @@ impl Grid {
                 .map(|i| bounds.lo[a] + i as f64 / inv_cell)
                 .collect::<Vec<f64>>()
         });
+        let boundaries_desc = [0, 1, 2].map(|a| boundaries[a].iter().rev().copied().collect());
         Ok(Grid {
             lo: bounds.lo,
             dims,
             cell_size,
             inv_cell,
             boundaries,
+            boundaries_desc,
             offsets: vec![0; total as usize + 1],
             ids: Vec::new(),
         })
@@ -164,6 +169,17 @@ impl Grid {
         c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
     }
 
+    /// Axis `a`'s boundaries in the order a ray crosses them: ascending when `up`, else
+    /// descending.
+    #[inline]
+    pub(crate) fn boundaries_along(&self, a: usize, up: bool) -> &[f64] {
+        if up {
+            &self.boundaries[a]
+        } else {
+            &self.boundaries_desc[a]
+        }
+    }
+
     /// The patch ids listed in cell `c` (linear index), ascending.
     #[inline]
     pub fn patches_in(&self, c: usize) -> &[u32] {
@@ -177,14 +193,15 @@ impl Grid {
         let b = &self.boundaries[axis];
         let n = self.dims[axis];
         // floor(s) without a libm call: for 0 <= s < n truncation is the floor, and
-        // floor(s) < 0 iff s < 0, floor(s) >= n iff s >= n; NaN goes to cell 0.
+        // floor(s) < 0 iff s < 0, floor(s) >= n iff s >= n; NaN goes to cell 0. (n is at
+        // most MAX_CELLS, so the conversions go through i64, one instruction each.)
         let s = (x - self.lo[axis]) * self.inv_cell;
         let mut i = if !(s >= 0.0) {
             0
-        } else if s >= n as f64 {
+        } else if s >= n as i64 as f64 {
             n - 1
         } else {
-            s as usize
+            s as i64 as usize
         };
         if i > 0 && x < b[i] {
             i -= 1;

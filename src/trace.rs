@@ -61,7 +61,8 @@ impl PreparedRay {
         };
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
+        let (da, oa) = (d.to_array(), ray.o.to_array());
+        if da[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
         PreparedRay {
@@ -70,11 +71,11 @@ impl PreparedRay {
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            okx: ray.o[kx],
-            oky: ray.o[ky],
-            okz: ray.o[kz],
+            sx: da[kx] / da[kz],
+            sy: da[ky] / da[kz],
+            okx: oa[kx],
+            oky: oa[ky],
+            okz: oa[kz],
         }
     }
 
@@ -307,11 +308,52 @@ pub struct TraceCounts {
 /// No patch: patch ids are below [`crate::scene::MAX_PATCHES`].
 const NO_PATCH: u32 = u32::MAX;
 
-/// The best hit before any: every hit beats it (its t is finite and less than +inf).
-const NO_HIT: Hit = Hit {
-    patch: NO_PATCH,
-    t: f64::INFINITY,
-};
+/// The nearest hit so far, and a bound for rejecting crossings without dividing.
+///
+/// With `num, den > 0` (signs flipped together) and the nearest hit at a normal `T`: if
+/// `num / den >= T (1 + 2^-52)` the exact quotient lies above the midpoint of `T` and its
+/// successor, so `t = fl(num / den) > T` and the crossing cannot beat the hit. `far =
+/// fl(T (1 + 2^-50))` absorbs two roundings: when `den · far` is normal, `num > fl(den · far)`
+/// implies that inequality; when it is subnormal it is below [`Nearest::TINY`], so
+/// `num > max(fl(den · far), TINY)` implies `t > T` in every case. `far` is +inf until there
+/// is a hit (and while T is subnormal): nothing is rejected on that ground.
+struct Nearest {
+    hit: Hit,
+    far: f64,
+}
+
+impl Nearest {
+    /// Margin of `far` over the nearest t: 1 + 2^-50.
+    const FAR: f64 = 1.0 + 1.0 / (1u64 << 50) as f64;
+    /// Floor of the rejection bound: above 2^-1021, the largest subnormal product's bound.
+    const TINY: f64 = 1.0e-300;
+
+    #[inline(always)]
+    fn new() -> Self {
+        Nearest {
+            hit: Hit {
+                patch: NO_PATCH,
+                t: f64::INFINITY,
+            },
+            far: f64::INFINITY,
+        }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, h: Hit) {
+        self.hit = h;
+        self.far = if h.t >= f64::MIN_POSITIVE {
+            h.t * Self::FAR
+        } else {
+            f64::INFINITY
+        };
+    }
+
+    #[inline(always)]
+    fn get(&self) -> Option<Hit> {
+        (self.hit.patch != NO_PATCH).then_some(self.hit)
+    }
+}
 
 /// A per-ray filter of patches already tested (mailboxing): a patch listed in several cells
 /// would be tested again with the same ray, giving the same t and the same answer, and a
@@ -371,32 +413,35 @@ impl Tracer {
         })
     }
 
-    /// Tests patch `id` against `r` and makes it the best hit if it is nearer: the same t and
-    /// the same answer as [`PatchGeom::intersect_if_nearer`], with cheap rejections first.
+    /// Tests patch `id` against `r` (if `fresh`) and makes it the nearest hit if it is
+    /// nearer: the same t and the same answer as [`PatchGeom::intersect_if_nearer`], with
+    /// the division left for crossings that may be hits.
     #[inline(always)]
-    fn test(&self, r: &PreparedRay, id: u32, best: &mut Hit) {
-        let pl = &self.planes[id as usize];
+    fn test(&self, r: &PreparedRay, id: u32, fresh: bool, near: &mut Nearest) {
         // Plane crossing t = num / den, the operations of `plane_t`.
+        let pl = &self.planes[id as usize];
         let num = pl.offset - pl.normal.dot(r.o);
         let den = pl.normal.dot(r.d);
-        // t > 0 needs num and den nonzero and of one sign: decided before dividing.
-        if !((num > 0.0 && den > 0.0) || (num < 0.0 && den < 0.0)) {
+        // Without dividing, reject a crossing behind the origin (num, den not both nonzero
+        // of one sign: t <= 0 or NaN) or certainly beyond the nearest hit (see `Nearest`).
+        let ahead = (num > 0.0 && den > 0.0) || (num < 0.0 && den < 0.0);
+        if !(fresh & ahead) || num.abs() > (den.abs() * near.far).max(Nearest::TINY) {
             return;
         }
-        // The exact t: it must be finite and positive (the quotient may overflow or
-        // underflow) and beat the best hit by the tie rule.
+        // The exact t: positive and finite (the quotient may underflow or overflow), nearer
+        // than the nearest hit by the tie rule.
         let h = Hit {
             patch: id,
             t: num / den,
         };
-        if !(h.t > 0.0 && h.t < f64::INFINITY && h.beats(best)) {
+        if !(h.t > 0.0 && h.t < f64::INFINITY && h.beats(&near.hit)) {
             return;
         }
         // Watertight inside test on the corners in ray space.
         let c = &self.corners[id as usize];
         let (px, py) = r.project(&c.rows);
         if inside_projected(&px, &py, c.n) {
-            *best = h;
+            near.set(h);
         }
     }
 
@@ -404,13 +449,11 @@ impl Tracer {
     pub fn trace_brute(&self, ray: &Ray, exclude: Option<u32>) -> Option<Hit> {
         let r = PreparedRay::new(ray);
         let exclude = exclude.unwrap_or(NO_PATCH);
-        let mut best = NO_HIT;
+        let mut near = Nearest::new();
         for id in 0..self.planes.len() as u32 {
-            if id != exclude {
-                self.test(&r, id, &mut best);
-            }
+            self.test(&r, id, id != exclude, &mut near);
         }
-        (best.patch != NO_PATCH).then_some(best)
+        near.get()
     }
 
     /// Every patch the ray's half-line `t > 0` hits, sorted by (t, id): for watertightness checks.
@@ -418,9 +461,9 @@ impl Tracer {
         let r = PreparedRay::new(ray);
         let mut v: Vec<Hit> = (0..self.planes.len() as u32)
             .filter_map(|id| {
-                let mut h = NO_HIT;
-                self.test(&r, id, &mut h);
-                (h.patch != NO_PATCH).then_some(h)
+                let mut near = Nearest::new();
+                self.test(&r, id, true, &mut near);
+                near.get()
             })
             .collect();
         v.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.patch.cmp(&b.patch)));
@@ -455,7 +498,7 @@ impl Tracer {
         let slack_t = self.slack_len / ray.d.length();
         let exclude = exclude.unwrap_or(NO_PATCH);
         let mut mailbox = Mailbox::new();
-        let mut best = NO_HIT;
+        let mut near = Nearest::new();
         loop {
             // Test the cell's patches (counted as the machine would, repeats included).
             let list = self.grid.patches_in(dda.cell());
@@ -471,18 +514,20 @@ impl Tracer {
                     counts.tests += 1;
                 }
                 if !mailbox.seen(id) {
-                    self.test(&r, id, &mut best);
+                    self.test(&r, id, true, &mut near);
                 }
             }
-            // Stop once the next cell starts beyond the best hit and its slack.
-            if best.patch != NO_PATCH && dda.t_exit() > best.t + slack_t {
-                break;
-            }
-            if !dda.step() {
+            // Step on unless the next cell starts beyond the nearest hit and its slack.
+            let t_stop = if near.hit.patch != NO_PATCH {
+                near.hit.t + slack_t
+            } else {
+                f64::INFINITY
+            };
+            if !dda.step_unless_beyond(t_stop) {
                 break;
             }
         }
-        ((best.patch != NO_PATCH).then_some(best), counts)
+        (near.get(), counts)
     }
 
     /// Calls `f(cell, t_enter, t_exit)` for every cell the ray passes through, in order,
@@ -506,20 +551,21 @@ impl Tracer {
 /// ties between axes step the lowest axis first; every step moves one cell along one axis,
 /// so a walk takes at most `nx + ny + nz` steps and always ends. Boundary crossings are
 /// computed from the boundary table, not accumulated, so no error builds up.
+///
+/// Each axis holds the boundaries it has still to cross after its next one, in crossing
+/// order: a step takes the first, and an axis with none left is at the grid's last cell.
 #[derive(Clone, Debug)]
 pub struct Dda<'g> {
-    grid: &'g Grid,
-    o: DVec3,
-    inv: DVec3,
+    o: [f64; 3],
+    inv: [f64; 3],
     c: [usize; 3],
     /// The current cell's linear index, kept in step with `c`.
     idx: usize,
     /// Per axis: the linear-index change of one step (0 for a zero component).
     stride: [isize; 3],
-    /// Per axis: the last coordinate before the ray leaves the grid.
-    last: [usize; 3],
-    /// Per axis: 1 when stepping up (the exit boundary is `b[c + 1]`), else 0 (`b[c]`).
-    up: [usize; 3],
+    /// Per axis: the boundaries beyond the next crossing, in crossing order.
+    ahead: [&'g [f64]; 3],
+    /// Per axis: t of the next crossing.
     t_max: [f64; 3],
     t_enter: f64,
     /// Where the ray leaves the grid's box.
@@ -528,7 +574,7 @@ pub struct Dda<'g> {
 
 impl<'g> Dda<'g> {
     /// Starts the walk where the ray (t >= 0) enters the grid; `None` if it misses the grid.
-    #[inline]
+    #[inline(always)]
     pub fn new(grid: &'g Grid, ray: &Ray) -> Option<Self> {
         let inv = DVec3::ONE / ray.d;
         // Clip the ray to the grid box (slab test; a zero component only checks the slab).
@@ -550,36 +596,34 @@ impl<'g> Dda<'g> {
         if t0 > t1 || t0.is_nan() || t1.is_nan() {
             return None;
         }
-        // The entry cell, and per axis the stride, the exit boundary and the first crossing.
+        // The entry cell; per axis the stride, the next crossing and the boundaries beyond.
         let start = if t0 > 0.0 { ray.o + ray.d * t0 } else { ray.o };
         let dims = grid.dims;
         let axis_stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
         let mut c = [0usize; 3];
         let mut stride = [0isize; 3];
-        let mut last = [0usize; 3];
-        let mut up = [0usize; 3];
+        let mut ahead: [&[f64]; 3] = [&[]; 3];
         let mut t_max = [f64::INFINITY; 3];
         for a in 0..3 {
             c[a] = grid.coord(a, start[a]);
-            if ray.d[a] > 0.0 {
-                stride[a] = axis_stride[a];
-                last[a] = dims[a] - 1;
-                up[a] = 1;
-                t_max[a] = (grid.boundaries[a][c[a] + 1] - ray.o[a]) * inv[a];
-            } else if ray.d[a] < 0.0 {
-                stride[a] = -axis_stride[a];
-                t_max[a] = (grid.boundaries[a][c[a]] - ray.o[a]) * inv[a];
+            if ray.d[a] != 0.0 {
+                // Stepping up, the next crossing is boundary c + 1; stepping down, c (which
+                // is `dims − c` counted from the top).
+                let up = ray.d[a] > 0.0;
+                let b = grid.boundaries_along(a, up);
+                let next = if up { c[a] + 1 } else { dims[a] - c[a] };
+                stride[a] = if up { axis_stride[a] } else { -axis_stride[a] };
+                t_max[a] = (b[next] - ray.o[a]) * inv[a];
+                ahead[a] = &b[next + 1..];
             }
         }
         Some(Dda {
-            grid,
-            o: ray.o,
-            inv,
+            o: ray.o.to_array(),
+            inv: inv.to_array(),
             c,
             idx: grid.index(c),
             stride,
-            last,
-            up,
+            ahead,
             t_max,
             t_enter: t0,
             t_end: t1,
@@ -612,7 +656,7 @@ impl<'g> Dda<'g> {
     }
 
     /// The axis of the next step: the smallest t_max, ties to the lowest axis.
-    #[inline]
+    #[inline(always)]
     fn next_axis(&self) -> usize {
         let mut a = 0;
         if self.t_max[1] < self.t_max[a] {
@@ -625,23 +669,45 @@ impl<'g> Dda<'g> {
     }
 
     /// Steps into the next cell; false when the ray leaves the grid.
-    #[inline]
+    #[inline(always)]
     pub fn step(&mut self) -> bool {
-        let a = self.next_axis();
-        let t_next = self.t_max[a];
+        self.step_unless_beyond(f64::INFINITY)
+    }
+
+    /// Steps into the next cell unless the current one ends beyond `t_stop` (its t_exit is
+    /// greater) or the ray leaves the grid; false then.
+    #[inline(always)]
+    fn step_unless_beyond(&mut self, t_stop: f64) -> bool {
+        // One code path per axis: every index is a constant, so the state stays in registers.
+        match self.next_axis() {
+            0 => self.step_axis::<0>(t_stop),
+            1 => self.step_axis::<1>(t_stop),
+            _ => self.step_axis::<2>(t_stop),
+        }
+    }
+
+    /// Steps along axis `A` (the next axis), as [`Dda::step_unless_beyond`].
+    #[inline(always)]
+    fn step_axis<const A: usize>(&mut self, t_stop: f64) -> bool {
+        let t_next = self.t_max[A];
+        // The stopping rule on the current cell's exit.
+        if t_next.min(self.t_end) > t_stop {
+            return false;
+        }
         // Leaving the box, or no axis left to step (every component zero).
         if t_next > self.t_end || t_next == f64::INFINITY {
             return false;
         }
-        // Leaving the grid through its last cell on this axis.
-        if self.c[a] == self.last[a] {
+        // Leaving the grid through its last cell on this axis: no boundary beyond.
+        let Some((&b, ahead)) = self.ahead[A].split_first() else {
             return false;
-        }
-        // Move one cell and compute the axis's next crossing from the boundary table.
-        self.c[a] = self.c[a].wrapping_add_signed(self.stride[a].signum());
-        self.idx = self.idx.wrapping_add_signed(self.stride[a]);
+        };
+        // Move one cell; the axis's next crossing is the boundary beyond.
+        self.ahead[A] = ahead;
+        self.c[A] = self.c[A].wrapping_add_signed(self.stride[A].signum());
+        self.idx = self.idx.wrapping_add_signed(self.stride[A]);
         self.t_enter = t_next;
-        self.t_max[a] = (self.grid.boundaries[a][self.c[a] + self.up[a]] - self.o[a]) * self.inv[a];
+        self.t_max[A] = (b - self.o[A]) * self.inv[A];
         true
     }
 }
