@@ -576,28 +576,33 @@ impl<'g> Dda<'g> {
     /// Starts the walk where the ray (t >= 0) enters the grid; `None` if it misses the grid.
     #[inline(always)]
     pub fn new(grid: &'g Grid, ray: &Ray) -> Option<Self> {
-        let inv = DVec3::ONE / ray.d;
+        let (o, d) = (ray.o.to_array(), ray.d.to_array());
+        let inv = d.map(|x| 1.0 / x);
         // Clip the ray to the grid box (slab test; a zero component only checks the slab).
         let bx = grid.aabb();
+        let (lo, hi) = (bx.lo.to_array(), bx.hi.to_array());
         let mut t0 = 0.0f64;
         let mut t1 = f64::INFINITY;
+        let mut outside = false;
         for a in 0..3 {
-            if ray.d[a] == 0.0 {
-                if ray.o[a] < bx.lo[a] || ray.o[a] > bx.hi[a] {
-                    return None;
-                }
+            if d[a] == 0.0 {
+                outside |= o[a] < lo[a] || o[a] > hi[a];
                 continue;
             }
-            let ta = (bx.lo[a] - ray.o[a]) * inv[a];
-            let tb = (bx.hi[a] - ray.o[a]) * inv[a];
+            let ta = (lo[a] - o[a]) * inv[a];
+            let tb = (hi[a] - o[a]) * inv[a];
             t0 = t0.max(ta.min(tb));
             t1 = t1.min(ta.max(tb));
         }
-        if t0 > t1 || t0.is_nan() || t1.is_nan() {
+        if outside || t0 > t1 || t0.is_nan() || t1.is_nan() {
             return None;
         }
         // The entry cell; per axis the stride, the next crossing and the boundaries beyond.
-        let start = if t0 > 0.0 { ray.o + ray.d * t0 } else { ray.o };
+        let start = if t0 > 0.0 {
+            [0, 1, 2].map(|a| o[a] + d[a] * t0)
+        } else {
+            o
+        };
         let dims = grid.dims;
         let axis_stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
         let mut c = [0usize; 3];
@@ -606,20 +611,20 @@ impl<'g> Dda<'g> {
         let mut t_max = [f64::INFINITY; 3];
         for a in 0..3 {
             c[a] = grid.coord(a, start[a]);
-            if ray.d[a] != 0.0 {
+            if d[a] != 0.0 {
                 // Stepping up, the next crossing is boundary c + 1; stepping down, c (which
                 // is `dims − c` counted from the top).
-                let up = ray.d[a] > 0.0;
+                let up = d[a] > 0.0;
                 let b = grid.boundaries_along(a, up);
                 let next = if up { c[a] + 1 } else { dims[a] - c[a] };
                 stride[a] = if up { axis_stride[a] } else { -axis_stride[a] };
-                t_max[a] = (b[next] - ray.o[a]) * inv[a];
+                t_max[a] = (b[next] - o[a]) * inv[a];
                 ahead[a] = &b[next + 1..];
             }
         }
         Some(Dda {
-            o: ray.o.to_array(),
-            inv: inv.to_array(),
+            o,
+            inv,
             c,
             idx: grid.index(c),
             stride,
@@ -690,8 +695,9 @@ impl<'g> Dda<'g> {
     #[inline(always)]
     fn step_axis<const A: usize>(&mut self, t_stop: f64) -> bool {
         let t_next = self.t_max[A];
-        // The stopping rule on the current cell's exit.
-        if t_next.min(self.t_end) > t_stop {
+        // The stopping rule on the current cell's exit, min(t_next, t_end) > t_stop (t_end
+        // is never NaN; a NaN t_next leaves t_end).
+        if !(t_next <= t_stop) & (self.t_end > t_stop) {
             return false;
         }
         // Leaving the box, or no axis left to step (every component zero).
