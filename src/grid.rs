@@ -196,7 +196,7 @@ impl Grid {
         // floor(s) < 0 iff s < 0, floor(s) >= n iff s >= n; NaN goes to cell 0. (n is at
         // most MAX_CELLS, so the conversions go through i64, one instruction each.)
         let s = (x - self.lo[axis]) * self.inv_cell;
-        let mut i = if !(s >= 0.0) {
+        let mut i = if s.is_nan() || s < 0.0 {
             0
         } else if s >= n as i64 as f64 {
             n - 1
@@ -378,6 +378,52 @@ mod tests {
     fn absurd_cell_sizes_are_errors() {
         for c in [0.0, -1.0, f64::NAN, 1e-9] {
             assert!(Grid::empty(unit(), c).is_err(), "cell {c}");
+        }
+    }
+
+    /// Binning without `floor` agrees with the floor-based formula everywhere, NaN and the
+    /// ends of the grid included.
+    #[test]
+    fn binning_matches_the_floor_formula() {
+        let g = Grid::empty(unit(), 0.05).unwrap();
+        let by_floor = |x: f64| {
+            let b = &g.boundaries[0];
+            let n = g.dims[0];
+            let f = ((x - g.lo[0]) * g.inv_cell).floor();
+            let mut i = if f.is_nan() || f < 0.0 {
+                0
+            } else if f >= n as f64 {
+                n - 1
+            } else {
+                f as usize
+            };
+            if i > 0 && x < b[i] {
+                i -= 1;
+            } else if i + 1 < n && x >= b[i + 1] {
+                i += 1;
+            }
+            i
+        };
+        let mut xs = vec![
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -0.0,
+            0.0,
+            1.0,
+            1e300,
+        ];
+        for k in 0..=20 {
+            let x = k as f64 / 20.0;
+            let (down, up) = (
+                f64::from_bits(x.to_bits() - 1),
+                f64::from_bits(x.to_bits() + 1),
+            );
+            xs.extend([x, down, up, -x, 1.0 + x]);
+        }
+        xs.extend((0..10_000).map(|i| -0.1 + 1.2 * i as f64 / 10_000.0));
+        for x in xs {
+            assert_eq!(g.coord(0, x), by_floor(x), "x = {x}");
         }
     }
 }

@@ -3,8 +3,15 @@
 //!
 //! **Invariant:** the nearest hit is the least `(t, patch id)` over all patches with `t > 0`,
 //! the excluded (source) patch left out — ties in `t` go to the smaller id. Grid traversal
-//! and brute force call the same [`PatchGeom::intersect`], so they return identical ids and
-//! identical bits of `t`.
+//! and brute force run the same test (`Tracer::test`, which answers exactly as
+//! [`PatchGeom::intersect_if_nearer`]), so they return identical ids and identical bits of `t`.
+//!
+//! Speed without changing a result: a per-ray mailbox skips repeat tests of a patch listed
+//! in several cells; a crossing behind the origin or certainly beyond the nearest hit is
+//! rejected before the division (`Nearest`); plane and corner data are laid out apart so
+//! that rejections touch little memory; the edge signs are computed branch-free and only
+//! undecided ones take the exact path; the DDA steps on constant axis indices with its
+//! crossings read in order from the boundary table.
 //!
 //! **Invariant (watertight):** the inside test evaluates edge functions in a ray-space frame
 //! (Woop, Benthin & Wald 2013, as in pbrt-v4), their signs decided exactly (a filtered
@@ -233,16 +240,31 @@ impl PatchGeom {
     /// Watertight inside test: does the ray's line pass through the polygon?
     #[inline]
     pub fn inside(&self, r: &PreparedRay) -> bool {
-        let c = Corners::new(self);
-        let (px, py) = r.project(&c.rows);
-        inside_projected(&px, &py, c.n)
+        // Corners in ray space, as `PreparedRay::project` (a triangle's corner 3 is corner 0).
+        let n = if self.n_verts == 3 { 3 } else { 4 };
+        let mut px = [0.0; 4];
+        let mut py = [0.0; 4];
+        for i in 0..4 {
+            let v = self.v[if i < n { i } else { 0 }].to_array();
+            let pz = v[r.kz] - r.okz;
+            px[i] = (v[r.kx] - r.okx) - r.sx * pz;
+            py[i] = (v[r.ky] - r.oky) - r.sy * pz;
+        }
+        inside_projected(&px, &py, n)
     }
 
     /// The hit of `r` on this patch if it is nearer than `best` (tie rule of [`Hit::beats`]).
     #[inline]
     pub fn intersect_if_nearer(&self, r: &PreparedRay, id: u32, best: &Option<Hit>) -> Option<Hit> {
-        let t = self.plane_t(r);
-        // `!(t > 0)` also rejects NaN (ray in the plane).
+        // The plane crossing, as `plane_t`; t > 0 needs num and den nonzero and of one sign,
+        // decided before dividing.
+        let num = self.offset - self.normal.dot(r.o);
+        let den = self.normal.dot(r.d);
+        if !((num > 0.0 && den > 0.0) || (num < 0.0 && den < 0.0)) {
+            return None;
+        }
+        let t = num / den;
+        // Positive and finite (the quotient may underflow or overflow).
         if !(t > 0.0 && t.is_finite()) {
             return None;
         }
@@ -325,7 +347,7 @@ struct Nearest {
 impl Nearest {
     /// Margin of `far` over the nearest t: 1 + 2^-50.
     const FAR: f64 = 1.0 + 1.0 / (1u64 << 50) as f64;
-    /// Floor of the rejection bound: above 2^-1021, the largest subnormal product's bound.
+    /// Floor of the rejection bound: any value above the subnormal range (2^-1022) will do.
     const TINY: f64 = 1.0e-300;
 
     #[inline(always)]
@@ -382,7 +404,8 @@ impl Mailbox {
 /// The float reference tracer: prepared patches and the grid.
 #[derive(Clone, Debug)]
 pub struct Tracer {
-    /// The prepared patches (read-only: the tracer tests copies laid out for speed).
+    /// The prepared patches. (The tracer tests copies laid out for speed, made by `new`:
+    /// changing these afterwards does not change what it traces.)
     pub patches: Vec<PatchGeom>,
     pub grid: Grid,
     /// Per patch: its plane, and its corners (split so that rejections touch little memory).
@@ -413,11 +436,11 @@ impl Tracer {
         })
     }
 
-    /// Tests patch `id` against `r` (if `fresh`) and makes it the nearest hit if it is
-    /// nearer: the same t and the same answer as [`PatchGeom::intersect_if_nearer`], with
-    /// the division left for crossings that may be hits.
+    /// Tests patch `id` against `r` and makes it the nearest hit if it is nearer: the same t
+    /// and the same answer as [`PatchGeom::intersect_if_nearer`], with the division left for
+    /// crossings that may be hits.
     #[inline(always)]
-    fn test(&self, r: &PreparedRay, id: u32, fresh: bool, near: &mut Nearest) {
+    fn test(&self, r: &PreparedRay, id: u32, near: &mut Nearest) {
         // Plane crossing t = num / den, the operations of `plane_t`.
         let pl = &self.planes[id as usize];
         let num = pl.offset - pl.normal.dot(r.o);
@@ -425,7 +448,7 @@ impl Tracer {
         // Without dividing, reject a crossing behind the origin (num, den not both nonzero
         // of one sign: t <= 0 or NaN) or certainly beyond the nearest hit (see `Nearest`).
         let ahead = (num > 0.0 && den > 0.0) || (num < 0.0 && den < 0.0);
-        if !(fresh & ahead) || num.abs() > (den.abs() * near.far).max(Nearest::TINY) {
+        if !ahead || num.abs() > (den.abs() * near.far).max(Nearest::TINY) {
             return;
         }
         // The exact t: positive and finite (the quotient may underflow or overflow), nearer
@@ -451,7 +474,9 @@ impl Tracer {
         let exclude = exclude.unwrap_or(NO_PATCH);
         let mut near = Nearest::new();
         for id in 0..self.planes.len() as u32 {
-            self.test(&r, id, id != exclude, &mut near);
+            if id != exclude {
+                self.test(&r, id, &mut near);
+            }
         }
         near.get()
     }
@@ -462,7 +487,7 @@ impl Tracer {
         let mut v: Vec<Hit> = (0..self.planes.len() as u32)
             .filter_map(|id| {
                 let mut near = Nearest::new();
-                self.test(&r, id, true, &mut near);
+                self.test(&r, id, &mut near);
                 near.get()
             })
             .collect();
@@ -481,10 +506,10 @@ impl Tracer {
         self.walk::<true>(ray, exclude)
     }
 
-    /// Nearest hit by 3D-DDA: tests each cell's patches in order of increasing t and stops
-    /// once the next cell starts beyond the best hit plus a slack of 1e-9 of the grid's
-    /// diagonal — so a hit computed a hair beyond its cell can never hide a nearer one in
-    /// the next cell — or when the ray leaves the grid.
+    /// Nearest hit by 3D-DDA: tests each cell's patches in order of increasing t (each patch
+    /// once, see [`Mailbox`]) and stops once the next cell starts beyond the best hit plus a
+    /// slack of 1e-9 of the grid's diagonal — so a hit computed a hair beyond its cell can
+    /// never hide a nearer one in the next cell — or when the ray leaves the grid.
     fn walk<const COUNT: bool>(
         &self,
         ray: &Ray,
@@ -514,7 +539,7 @@ impl Tracer {
                     counts.tests += 1;
                 }
                 if !mailbox.seen(id) {
-                    self.test(&r, id, true, &mut near);
+                    self.test(&r, id, &mut near);
                 }
             }
             // Step on unless the next cell starts beyond the nearest hit and its slack.
@@ -697,7 +722,7 @@ impl<'g> Dda<'g> {
         let t_next = self.t_max[A];
         // The stopping rule on the current cell's exit, min(t_next, t_end) > t_stop (t_end
         // is never NaN; a NaN t_next leaves t_end).
-        if !(t_next <= t_stop) & (self.t_end > t_stop) {
+        if (t_next > t_stop || t_next.is_nan()) & (self.t_end > t_stop) {
             return false;
         }
         // Leaving the box, or no axis left to step (every component zero).
@@ -800,5 +825,188 @@ mod tests {
         let tiny = f64::EPSILON;
         assert!(det2_sign(1.0 + tiny, 1.0, 1.0, 1.0) > 0.0);
         assert!(det2_sign(1.0, 1.0 + tiny, 1.0, 1.0) < 0.0);
+    }
+
+    /// The division-free rejection never drops a crossing whose t would not exceed the
+    /// nearest hit's, over ordinary, tiny (subnormal products) and huge magnitudes.
+    #[test]
+    fn the_far_bound_rejects_only_crossings_beyond_the_hit() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        let (mut near_misses, mut rejections) = (0, 0);
+        for i in 0..200_000 {
+            let t_hit: f64 = 10f64.powf(rng.gen_range(-300.0..300.0));
+            let mut near = Nearest::new();
+            near.set(Hit { patch: 0, t: t_hit });
+            let den: f64 = 10f64.powf(rng.gen_range(-320.0..300.0));
+            // Numerators around t_hit·den, a few ulps either side (or anywhere, sometimes).
+            let num = if i % 4 == 0 {
+                10f64.powf(rng.gen_range(-320.0..300.0))
+            } else {
+                let x = t_hit * den;
+                let ulps = rng.gen_range(-4i64..=4);
+                f64::from_bits((x.to_bits() as i64 + ulps).max(1) as u64)
+            };
+            if !(num.is_finite() && num > 0.0 && den > 0.0) {
+                continue;
+            }
+            let rejected = num > (den * near.far).max(Nearest::TINY);
+            if rejected {
+                assert!(num / den > t_hit, "num {num:e} den {den:e} t {t_hit:e}");
+                rejections += 1;
+            } else {
+                near_misses += (num / den > t_hit) as u32;
+            }
+        }
+        // Both ways taken: crossings just beyond the hit are kept (and rejected after the
+        // division).
+        assert!(
+            rejections > 10_000 && near_misses > 1000,
+            "{rejections} {near_misses}"
+        );
+    }
+
+    /// The stepper against a plain Amanatides & Woo walk (indices recomputed each step from
+    /// the boundary table): the same cells and the same bits of t, adversarial rays included.
+    #[test]
+    fn dda_matches_a_plain_walk() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+        let g = Grid::empty(
+            Aabb {
+                lo: DVec3::new(-0.2, 0.0, 0.1),
+                hi: DVec3::new(0.9, 0.7, 1.0),
+            },
+            0.07,
+        )
+        .unwrap();
+        let b = &g.boundaries;
+        for i in 0..20_000 {
+            let mut o = DVec3::new(
+                rng.gen_range(-0.5..1.2),
+                rng.gen_range(-0.3..1.0),
+                rng.gen_range(-0.2..1.3),
+            );
+            let mut d = DVec3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            );
+            if i % 3 == 0 {
+                d[rng.gen_range(0..3)] = 0.0;
+            }
+            if i % 5 == 0 {
+                for a in 0..3 {
+                    o[a] = b[a][rng.gen_range(0..b[a].len())];
+                }
+                d = DVec3::new(1.0, -1.0, 1.0) * d.signum();
+            }
+            if d == DVec3::ZERO {
+                d = DVec3::X;
+            }
+            let ray = Ray { o, d };
+            let mut got = Vec::new();
+            if let Some(mut dda) = Dda::new(&g, &ray) {
+                loop {
+                    got.push((dda.coords(), dda.cell(), dda.t_enter().to_bits()));
+                    if !dda.step() {
+                        break;
+                    }
+                }
+            }
+            assert_eq!(got, plain_walk(&g, &ray), "ray {ray:?}");
+        }
+    }
+
+    /// Amanatides & Woo as first written: clip, bin the entry point, then per step the axis
+    /// of the least t_max (ties to the lowest) and its next crossing from the table.
+    fn plain_walk(g: &Grid, ray: &Ray) -> Vec<([usize; 3], usize, u64)> {
+        let inv = DVec3::ONE / ray.d;
+        let bx = g.aabb();
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for a in 0..3 {
+            if ray.d[a] == 0.0 {
+                if ray.o[a] < bx.lo[a] || ray.o[a] > bx.hi[a] {
+                    return Vec::new();
+                }
+                continue;
+            }
+            let ta = (bx.lo[a] - ray.o[a]) * inv[a];
+            let tb = (bx.hi[a] - ray.o[a]) * inv[a];
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        if t0 > t1 || t0.is_nan() || t1.is_nan() {
+            return Vec::new();
+        }
+        let start = if t0 > 0.0 { ray.o + ray.d * t0 } else { ray.o };
+        let mut c = [0usize; 3];
+        let mut t_max = [f64::INFINITY; 3];
+        let crossing = |a: usize, c: usize| {
+            let k = if ray.d[a] > 0.0 { c + 1 } else { c };
+            (g.boundaries[a][k] - ray.o[a]) * inv[a]
+        };
+        for a in 0..3 {
+            c[a] = g.coord(a, start[a]);
+            if ray.d[a] != 0.0 {
+                t_max[a] = crossing(a, c[a]);
+            }
+        }
+        let mut t_enter = t0;
+        let mut out = Vec::new();
+        loop {
+            out.push((c, g.index(c), t_enter.to_bits()));
+            let mut a = 0;
+            for k in 1..3 {
+                if t_max[k] < t_max[a] {
+                    a = k;
+                }
+            }
+            let t = t_max[a];
+            if t > t1 || t == f64::INFINITY {
+                return out;
+            }
+            let ni = c[a] as isize + if ray.d[a] > 0.0 { 1 } else { -1 };
+            if ni < 0 || ni >= g.dims[a] as isize {
+                return out;
+            }
+            c[a] = ni as usize;
+            t_enter = t;
+            t_max[a] = crossing(a, c[a]);
+        }
+    }
+
+    /// The tracer's test and `PatchGeom::intersect` find the same hits with the same bits of
+    /// t, triangles and rays through shared edges and vertices included.
+    #[test]
+    fn tracer_test_equals_patch_intersect() {
+        use crate::gen::{generate, Kind, DEFAULT_SEED};
+        use rand::{Rng, SeedableRng};
+        let scene = generate(Kind::StressEdges, DEFAULT_SEED);
+        let tr = Tracer::new(&scene, 0.05).unwrap();
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(9);
+        for i in 0..2_000 {
+            let p = &scene.patches[rng.gen_range(0..scene.patches.len())];
+            // Aim at a vertex (every other ray) or a random point of the patch.
+            let target = if i % 2 == 0 {
+                p.vertices[rng.gen_range(0..p.vertices.len())]
+            } else {
+                p.centroid() + (p.vertices[0] - p.centroid()) * rng.gen::<f64>()
+            };
+            let o = DVec3::new(rng.gen(), rng.gen(), rng.gen());
+            let ray = Ray { o, d: target - o };
+            let r = PreparedRay::new(&ray);
+            let by_geom: Vec<(u32, u64)> = (0..tr.patches.len() as u32)
+                .filter_map(|id| tr.patches[id as usize].intersect(&r, id))
+                .map(|h| (h.patch, h.t.to_bits()))
+                .collect();
+            let mut by_tracer: Vec<(u32, u64)> = tr
+                .hits_all(&ray)
+                .iter()
+                .map(|h| (h.patch, h.t.to_bits()))
+                .collect();
+            by_tracer.sort_unstable();
+            assert_eq!(by_geom, by_tracer, "ray {ray:?}");
+        }
     }
 }
