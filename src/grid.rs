@@ -39,8 +39,9 @@ pub struct Grid {
     pub inv_cell: f64,
     /// Cell boundaries per axis: `bounds[a][i] = lo[a] + i / inv_cell`, `i = 0..=dims[a]`.
     pub boundaries: [Vec<f64>; 3],
-    /// The same boundaries in descending order (`boundaries_desc[a][k] = bounds[a][dims[a] − k]`),
-    /// so that a ray stepping down an axis reads its crossings front to back.
+    /// The same boundaries in descending order, `boundaries_desc[a][k] =
+    /// boundaries[a][dims[a] − k]`, so that a ray stepping down an axis reads its crossings
+    /// front to back.
     boundaries_desc: [Vec<f64>; 3],
     /// `offsets[c]..offsets[c + 1]` indexes `ids` for cell `c` (x fastest, then y, then z).
     offsets: Vec<u32>,
@@ -415,10 +416,13 @@ mod tests {
         ];
         for k in 0..=20 {
             let x = k as f64 / 20.0;
-            let (down, up) = (
-                f64::from_bits(x.to_bits() - 1),
-                f64::from_bits(x.to_bits() + 1),
-            );
+            // The neighbouring doubles (below 0: the negative subnormal nearest to it).
+            let down = if x > 0.0 {
+                f64::from_bits(x.to_bits() - 1)
+            } else {
+                -f64::from_bits(1)
+            };
+            let up = f64::from_bits(x.to_bits() + 1);
             xs.extend([x, down, up, -x, 1.0 + x]);
         }
         xs.extend((0..10_000).map(|i| -0.1 + 1.2 * i as f64 / 10_000.0));

@@ -159,8 +159,9 @@ fn top_left(dx: f64, dy: f64) -> bool {
 /// vertices — a triangle's corner 3 repeats corner 0.
 #[inline(always)]
 fn inside_projected(px: &[f64; 4], py: &[f64; 4], n: usize) -> bool {
-    // Edge functions e_k = p_k × p_{k+1} (quad edges; edge 3 closes a triangle's 2 → 0 → 0
-    // with the degenerate 0 → 0, which bounds nothing) and their filter bounds, branch-free.
+    // Edge functions e_k = p_k × p_{k+1} over four edges, and their filter bounds,
+    // branch-free. (A triangle's edge 2 runs 2 → 3 = 0; its edge 3, the point 0 → 0, is left
+    // out below.)
     let mut e = [0.0f64; 4];
     let mut certain = [false; 4];
     for k in 0..4 {
