@@ -57,7 +57,13 @@ fn bench(c: &mut Criterion) {
                 scope: None,
             };
             let mut w = shellsim::vcd_out::VcdWriter::create(&path, opts).unwrap();
-            let mut m = shellsim_hw::machine::Machine::new(cfg, &prep.host.scene, &prep.records, &prep.sectors, 0);
+            let mut m = shellsim_hw::machine::Machine::new(
+                cfg,
+                &prep.host.scene,
+                &prep.records,
+                &prep.sectors,
+                0,
+            );
             m.run(TickOrder::Forward, Some(&mut w)).unwrap();
             black_box(w.finish().unwrap().bytes)
         })

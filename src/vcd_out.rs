@@ -418,7 +418,9 @@ impl VcdWriter {
         // from dominating the writer's time.
         let full_check =
             cfg!(debug_assertions) || self.samples <= 4 || self.samples.is_multiple_of(64);
-        if s.width != width || s.kind != kind || (full_check && (s.name != name || s.scope != scope))
+        if s.width != width
+            || s.kind != kind
+            || (full_check && (s.name != name || s.scope != scope))
         {
             let msg = format!(
                 "signal {} of a sample is {scope}.{name}, but {}.{} in the first sample",
