@@ -47,6 +47,27 @@ fn bench(c: &mut Criterion) {
             black_box(m.cycle)
         })
     });
+    let dir = std::env::temp_dir().join(format!("shellsim-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    g.bench_function("cycle_model_with_vcd", |b| {
+        b.iter(|| {
+            let path = dir.join("bench.vcd");
+            let opts = shellsim::vcd_out::VcdOptions {
+                window: shellsim::vcd_out::Window::ALL,
+                scope: None,
+            };
+            let mut w = shellsim::vcd_out::VcdWriter::create(&path, opts).unwrap();
+            let mut m = shellsim_hw::machine::Machine::new(
+                cfg,
+                &prep.host.scene,
+                &prep.records,
+                &prep.sectors,
+                0,
+            );
+            m.run(TickOrder::Forward, Some(&mut w)).unwrap();
+            black_box(w.finish().unwrap().bytes)
+        })
+    });
     // The untimed model doing the same number of (ray, patch) jobs: each high-resolution
     // ray against patches in id order, wrapping, until `jobs` tests are done.
     let host = HostFixed::new(&scene, &path, cfg.datapath, 0.05).unwrap();

@@ -39,6 +39,10 @@ pub struct Grid {
     pub inv_cell: f64,
     /// Cell boundaries per axis: `bounds[a][i] = lo[a] + i / inv_cell`, `i = 0..=dims[a]`.
     pub boundaries: [Vec<f64>; 3],
+    /// The same boundaries in descending order, `boundaries_desc[a][k] =
+    /// boundaries[a][dims[a] − k]`, so that a ray stepping down an axis reads its crossings
+    /// front to back.
+    boundaries_desc: [Vec<f64>; 3],
     /// `offsets[c]..offsets[c + 1]` indexes `ids` for cell `c` (x fastest, then y, then z).
     offsets: Vec<u32>,
     /// Patch ids of all cells, ascending within a cell.
@@ -119,12 +123,14 @@ impl Grid {
                 .map(|i| bounds.lo[a] + i as f64 / inv_cell)
                 .collect::<Vec<f64>>()
         });
+        let boundaries_desc = [0, 1, 2].map(|a| boundaries[a].iter().rev().copied().collect());
         Ok(Grid {
             lo: bounds.lo,
             dims,
             cell_size,
             inv_cell,
             boundaries,
+            boundaries_desc,
             offsets: vec![0; total as usize + 1],
             ids: Vec::new(),
         })
@@ -164,6 +170,17 @@ impl Grid {
         c[0] + self.dims[0] * (c[1] + self.dims[1] * c[2])
     }
 
+    /// Axis `a`'s boundaries in the order a ray crosses them: ascending when `up`, else
+    /// descending.
+    #[inline]
+    pub(crate) fn boundaries_along(&self, a: usize, up: bool) -> &[f64] {
+        if up {
+            &self.boundaries[a]
+        } else {
+            &self.boundaries_desc[a]
+        }
+    }
+
     /// The patch ids listed in cell `c` (linear index), ascending.
     #[inline]
     pub fn patches_in(&self, c: usize) -> &[u32] {
@@ -176,13 +193,16 @@ impl Grid {
     pub fn coord(&self, axis: usize, x: f64) -> usize {
         let b = &self.boundaries[axis];
         let n = self.dims[axis];
-        let f = ((x - self.lo[axis]) * self.inv_cell).floor();
-        let mut i = if f.is_nan() || f < 0.0 {
+        // floor(s) without a libm call: for 0 <= s < n truncation is the floor, and
+        // floor(s) < 0 iff s < 0, floor(s) >= n iff s >= n; NaN goes to cell 0. (n is at
+        // most MAX_CELLS, so the conversions go through i64, one instruction each.)
+        let s = (x - self.lo[axis]) * self.inv_cell;
+        let mut i = if s.is_nan() || s < 0.0 {
             0
-        } else if f >= n as f64 {
+        } else if s >= n as i64 as f64 {
             n - 1
         } else {
-            f as usize
+            s as i64 as usize
         };
         if i > 0 && x < b[i] {
             i -= 1;
@@ -359,6 +379,55 @@ mod tests {
     fn absurd_cell_sizes_are_errors() {
         for c in [0.0, -1.0, f64::NAN, 1e-9] {
             assert!(Grid::empty(unit(), c).is_err(), "cell {c}");
+        }
+    }
+
+    /// Binning without `floor` agrees with the floor-based formula everywhere, NaN and the
+    /// ends of the grid included.
+    #[test]
+    fn binning_matches_the_floor_formula() {
+        let g = Grid::empty(unit(), 0.05).unwrap();
+        let by_floor = |x: f64| {
+            let b = &g.boundaries[0];
+            let n = g.dims[0];
+            let f = ((x - g.lo[0]) * g.inv_cell).floor();
+            let mut i = if f.is_nan() || f < 0.0 {
+                0
+            } else if f >= n as f64 {
+                n - 1
+            } else {
+                f as usize
+            };
+            if i > 0 && x < b[i] {
+                i -= 1;
+            } else if i + 1 < n && x >= b[i + 1] {
+                i += 1;
+            }
+            i
+        };
+        let mut xs = vec![
+            f64::NAN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            -0.0,
+            0.0,
+            1.0,
+            1e300,
+        ];
+        for k in 0..=20 {
+            let x = k as f64 / 20.0;
+            // The neighbouring doubles (below 0: the negative subnormal nearest to it).
+            let down = if x > 0.0 {
+                f64::from_bits(x.to_bits() - 1)
+            } else {
+                -f64::from_bits(1)
+            };
+            let up = f64::from_bits(x.to_bits() + 1);
+            xs.extend([x, down, up, -x, 1.0 + x]);
+        }
+        xs.extend((0..10_000).map(|i| -0.1 + 1.2 * i as f64 / 10_000.0));
+        for x in xs {
+            assert_eq!(g.coord(0, x), by_floor(x), "x = {x}");
         }
     }
 }

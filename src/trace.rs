@@ -3,8 +3,15 @@
 //!
 //! **Invariant:** the nearest hit is the least `(t, patch id)` over all patches with `t > 0`,
 //! the excluded (source) patch left out — ties in `t` go to the smaller id. Grid traversal
-//! and brute force call the same [`PatchGeom::intersect`], so they return identical ids and
-//! identical bits of `t`.
+//! and brute force run the same test (`Tracer::test`, which answers exactly as
+//! [`PatchGeom::intersect_if_nearer`]), so they return identical ids and identical bits of `t`.
+//!
+//! Speed without changing a result: a per-ray mailbox skips repeat tests of a patch listed
+//! in several cells; a crossing behind the origin or certainly beyond the nearest hit is
+//! rejected before the division (`Nearest`); plane and corner data are laid out apart so
+//! that rejections touch little memory; the edge signs are computed branch-free and only
+//! undecided ones take the exact path; the DDA steps on constant axis indices with its
+//! crossings read in order from the boundary table.
 //!
 //! **Invariant (watertight):** the inside test evaluates edge functions in a ray-space frame
 //! (Woop, Benthin & Wald 2013, as in pbrt-v4), their signs decided exactly (a filtered
@@ -34,6 +41,10 @@ pub struct PreparedRay {
     kz: usize,
     sx: f64,
     sy: f64,
+    /// The origin's permuted coordinates `o[kx], o[ky], o[kz]`.
+    okx: f64,
+    oky: f64,
+    okz: f64,
 }
 
 impl PreparedRay {
@@ -57,7 +68,8 @@ impl PreparedRay {
         };
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
+        let (da, oa) = (d.to_array(), ray.o.to_array());
+        if da[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
         PreparedRay {
@@ -66,19 +78,27 @@ impl PreparedRay {
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
+            sx: da[kx] / da[kz],
+            sy: da[ky] / da[kz],
+            okx: oa[kx],
+            oky: oa[ky],
+            okz: oa[kz],
         }
     }
 
-    /// A point in ray space (2D: the ray itself is the origin).
-    #[inline]
-    fn project(&self, v: DVec3) -> (f64, f64) {
-        let p = v - self.o;
-        (
-            p[self.kx] - self.sx * p[self.kz],
-            p[self.ky] - self.sy * p[self.kz],
-        )
+    /// Corners in ray space (2D: the ray itself is the origin), from their coordinate rows:
+    /// `p = v − o`, then `(p[kx] − sx·p[kz], p[ky] − sy·p[kz])`.
+    #[inline(always)]
+    fn project(&self, rows: &[[f64; 4]; 3]) -> ([f64; 4], [f64; 4]) {
+        let (vx, vy, vz) = (&rows[self.kx], &rows[self.ky], &rows[self.kz]);
+        let mut px = [0.0; 4];
+        let mut py = [0.0; 4];
+        for i in 0..4 {
+            let pz = vz[i] - self.okz;
+            px[i] = (vx[i] - self.okx) - self.sx * pz;
+            py[i] = (vy[i] - self.oky) - self.sy * pz;
+        }
+        (px, py)
     }
 }
 
@@ -107,6 +127,10 @@ pub struct PatchGeom {
     pub offset: f64,
 }
 
+/// Shewchuk's orient2d error bound (3u + 16u²) rounded up: `|p − q|` above this times
+/// `|p| + |q|` has the sign of the exact `p − q`.
+const DET2_BOUND: f64 = 3.330_669_073_875_472e-16;
+
 /// The sign of `ax·by − ay·bx`, exact: a filtered product difference, with Kahan's FMA
 /// algorithm (error under 2 ulp, so its sign is right and it is zero only when exact zero)
 /// when the filter cannot decide.
@@ -115,8 +139,7 @@ fn det2_sign(ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
     let p = ax * by;
     let q = ay * bx;
     let e = p - q;
-    // Shewchuk's orient2d error bound (3u + 16u²) rounded up.
-    let bound = 3.330_669_073_875_472e-16 * (p.abs() + q.abs());
+    let bound = DET2_BOUND * (p.abs() + q.abs());
     if e.abs() > bound {
         return e;
     }
@@ -130,6 +153,67 @@ fn det2_sign(ax: f64, ay: f64, bx: f64, by: f64) -> f64 {
 #[inline]
 fn top_left(dx: f64, dy: f64) -> bool {
     dy > 0.0 || (dy == 0.0 && dx < 0.0)
+}
+
+/// Watertight inside test on ray-space corners `(px[k], py[k])` of a polygon of `n` (3 or 4)
+/// vertices — a triangle's corner 3 repeats corner 0.
+#[inline(always)]
+fn inside_projected(px: &[f64; 4], py: &[f64; 4], n: usize) -> bool {
+    // Edge functions e_k = p_k × p_{k+1} over four edges, and their filter bounds,
+    // branch-free. (A triangle's edge 2 runs 2 → 3 = 0; its edge 3, the point 0 → 0, is left
+    // out below.)
+    let mut e = [0.0f64; 4];
+    let mut certain = [false; 4];
+    for k in 0..4 {
+        let j = (k + 1) % 4;
+        let p = px[k] * py[j];
+        let q = py[k] * px[j];
+        e[k] = p - q;
+        certain[k] = e[k].abs() > DET2_BOUND * (p.abs() + q.abs());
+    }
+    // Fast path: every sign certain (so none zero), as det2_sign would return them.
+    let tri = n == 3;
+    if certain[0] & certain[1] & certain[2] & (tri | certain[3]) {
+        let pos = (e[0] > 0.0) & (e[1] > 0.0) & (e[2] > 0.0) & (tri | (e[3] > 0.0));
+        let neg = (e[0] < 0.0) & (e[1] < 0.0) & (e[2] < 0.0) & (tri | (e[3] < 0.0));
+        return pos | neg;
+    }
+    inside_exact(px, py, n)
+}
+
+/// The inside test with every sign exact and the fill rule on zero edges: the general path
+/// of [`inside_projected`], taken when the filter cannot decide some edge.
+#[cold]
+#[inline(never)]
+fn inside_exact(px: &[f64; 4], py: &[f64; 4], n: usize) -> bool {
+    // Edge functions: e_k > 0 when the ray lies left of edge k → k+1.
+    let mut e = [0.0f64; 4];
+    let (mut pos, mut neg) = (false, false);
+    for k in 0..n {
+        let j = (k + 1) % n;
+        e[k] = det2_sign(px[k], py[k], px[j], py[j]);
+        pos |= e[k] > 0.0;
+        neg |= e[k] < 0.0;
+    }
+    if pos == neg {
+        // Both signs (outside) or all zero (edge-on).
+        return false;
+    }
+    let orient = if pos { 1.0 } else { -1.0 };
+    for k in 0..n {
+        if e[k] == 0.0 {
+            let j = (k + 1) % n;
+            let (dx, dy) = (px[j] - px[k], py[j] - py[k]);
+            if dx == 0.0 && dy == 0.0 {
+                // The edge projects to a point: it bounds nothing.
+                continue;
+            }
+            if !top_left(orient * dx, orient * dy) {
+                return false;
+            }
+        }
+    }
+    true
 }
 
 impl PatchGeom {
@@ -157,48 +241,31 @@ impl PatchGeom {
     /// Watertight inside test: does the ray's line pass through the polygon?
     #[inline]
     pub fn inside(&self, r: &PreparedRay) -> bool {
-        let n = self.n_verts as usize;
-        let mut p = [(0.0, 0.0); 4];
-        for (q, v) in p.iter_mut().zip(&self.v[..n]) {
-            *q = r.project(*v);
+        // Corners in ray space, as `PreparedRay::project` (a triangle's corner 3 is corner 0).
+        let n = if self.n_verts == 3 { 3 } else { 4 };
+        let mut px = [0.0; 4];
+        let mut py = [0.0; 4];
+        for i in 0..4 {
+            let v = self.v[if i < n { i } else { 0 }].to_array();
+            let pz = v[r.kz] - r.okz;
+            px[i] = (v[r.kx] - r.okx) - r.sx * pz;
+            py[i] = (v[r.ky] - r.oky) - r.sy * pz;
         }
-        // Edge functions: e_k > 0 when the ray lies left of edge k → k+1.
-        let mut e = [0.0f64; 4];
-        let (mut pos, mut neg) = (false, false);
-        for k in 0..n {
-            let a = p[k];
-            let b = p[(k + 1) % n];
-            e[k] = det2_sign(a.0, a.1, b.0, b.1);
-            pos |= e[k] > 0.0;
-            neg |= e[k] < 0.0;
-        }
-        if pos == neg {
-            // Both signs (outside) or all zero (edge-on).
-            return false;
-        }
-        let orient = if pos { 1.0 } else { -1.0 };
-        for k in 0..n {
-            if e[k] == 0.0 {
-                let a = p[k];
-                let b = p[(k + 1) % n];
-                let (dx, dy) = (b.0 - a.0, b.1 - a.1);
-                if dx == 0.0 && dy == 0.0 {
-                    // The edge projects to a point: it bounds nothing.
-                    continue;
-                }
-                if !top_left(orient * dx, orient * dy) {
-                    return false;
-                }
-            }
-        }
-        true
+        inside_projected(&px, &py, n)
     }
 
     /// The hit of `r` on this patch if it is nearer than `best` (tie rule of [`Hit::beats`]).
     #[inline]
     pub fn intersect_if_nearer(&self, r: &PreparedRay, id: u32, best: &Option<Hit>) -> Option<Hit> {
-        let t = self.plane_t(r);
-        // `!(t > 0)` also rejects NaN (ray in the plane).
+        // The plane crossing, as `plane_t`; t > 0 needs num and den nonzero and of one sign,
+        // decided before dividing.
+        let num = self.offset - self.normal.dot(r.o);
+        let den = self.normal.dot(r.d);
+        if !((num > 0.0 && den > 0.0) || (num < 0.0 && den < 0.0)) {
+            return None;
+        }
+        let t = num / den;
+        // Positive and finite (the quotient may underflow or overflow).
         if !(t > 0.0 && t.is_finite()) {
             return None;
         }
@@ -222,6 +289,34 @@ impl PatchGeom {
     }
 }
 
+/// A patch's plane, all that most tests read: 32 bytes, one per cache-line quarter.
+#[derive(Clone, Copy, Debug)]
+#[repr(align(32))]
+struct Plane {
+    normal: DVec3,
+    offset: f64,
+}
+
+/// A patch's corners as coordinate rows (x, y, z of corners 0..3; a triangle's corner 3
+/// repeats corner 0), for the inside test.
+#[derive(Clone, Copy, Debug)]
+struct Corners {
+    rows: [[f64; 4]; 3],
+    n: usize,
+}
+
+impl Corners {
+    #[inline(always)]
+    fn new(p: &PatchGeom) -> Self {
+        let n = if p.n_verts == 3 { 3 } else { 4 };
+        let v = [p.v[0], p.v[1], p.v[2], if n == 3 { p.v[0] } else { p.v[3] }];
+        Corners {
+            rows: [0, 1, 2].map(|a| v.map(|x| x[a])),
+            n,
+        }
+    }
+}
+
 /// Work done by one traversal, as the machine would count it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TraceCounts {
@@ -233,11 +328,90 @@ pub struct TraceCounts {
     pub tests: u32,
 }
 
+/// No patch: patch ids are below [`crate::scene::MAX_PATCHES`].
+const NO_PATCH: u32 = u32::MAX;
+
+/// The nearest hit so far, and a bound for rejecting crossings without dividing.
+///
+/// With `num, den > 0` (signs flipped together) and the nearest hit at a normal `T`: if
+/// `num / den >= T (1 + 2^-52)` the exact quotient lies above the midpoint of `T` and its
+/// successor, so `t = fl(num / den) > T` and the crossing cannot beat the hit. `far =
+/// fl(T (1 + 2^-50))` absorbs two roundings: when `den · far` is normal, `num > fl(den · far)`
+/// implies that inequality; when it is subnormal it is below [`Nearest::TINY`], so
+/// `num > max(fl(den · far), TINY)` implies `t > T` in every case. `far` is +inf until there
+/// is a hit (and while T is subnormal): nothing is rejected on that ground.
+struct Nearest {
+    hit: Hit,
+    far: f64,
+}
+
+impl Nearest {
+    /// Margin of `far` over the nearest t: 1 + 2^-50.
+    const FAR: f64 = 1.0 + 1.0 / (1u64 << 50) as f64;
+    /// Floor of the rejection bound: any value above the subnormal range (2^-1022) will do.
+    const TINY: f64 = 1.0e-300;
+
+    #[inline(always)]
+    fn new() -> Self {
+        Nearest {
+            hit: Hit {
+                patch: NO_PATCH,
+                t: f64::INFINITY,
+            },
+            far: f64::INFINITY,
+        }
+    }
+
+    #[inline(always)]
+    fn set(&mut self, h: Hit) {
+        self.hit = h;
+        self.far = if h.t >= f64::MIN_POSITIVE {
+            h.t * Self::FAR
+        } else {
+            f64::INFINITY
+        };
+    }
+
+    #[inline(always)]
+    fn get(&self) -> Option<Hit> {
+        (self.hit.patch != NO_PATCH).then_some(self.hit)
+    }
+}
+
+/// A per-ray filter of patches already tested (mailboxing): a patch listed in several cells
+/// would be tested again with the same ray, giving the same t and the same answer, and a
+/// best hit that can only have improved since — so skipping the repeat changes nothing.
+/// Direct-mapped on the low bits of the id; a collision only evicts, costing a repeat test.
+struct Mailbox([u32; Mailbox::SLOTS]);
+
+impl Mailbox {
+    const SLOTS: usize = 32;
+
+    #[inline]
+    fn new() -> Self {
+        Mailbox([NO_PATCH; Self::SLOTS])
+    }
+
+    /// True if `id` was tested already on this ray; records it otherwise.
+    #[inline]
+    fn seen(&mut self, id: u32) -> bool {
+        let slot = &mut self.0[id as usize % Self::SLOTS];
+        let hit = *slot == id;
+        *slot = id;
+        hit
+    }
+}
+
 /// The float reference tracer: prepared patches and the grid.
 #[derive(Clone, Debug)]
 pub struct Tracer {
+    /// The prepared patches. (The tracer tests copies laid out for speed, made by `new`:
+    /// changing these afterwards does not change what it traces.)
     pub patches: Vec<PatchGeom>,
     pub grid: Grid,
+    /// Per patch: its plane, and its corners (split so that rejections touch little memory).
+    planes: Vec<Plane>,
+    corners: Vec<Corners>,
     /// Slack of the stopping rule, in units of length (see `trace_counted`).
     slack_len: f64,
 }
@@ -247,37 +421,76 @@ impl Tracer {
     pub fn new(scene: &Scene, cell_size: f64) -> crate::Result<Tracer> {
         let grid = Grid::build(scene, cell_size)?;
         let diag = grid.aabb().extent().length();
+        let patches: Vec<PatchGeom> = scene.patches.iter().map(PatchGeom::new).collect();
         Ok(Tracer {
-            patches: scene.patches.iter().map(PatchGeom::new).collect(),
+            planes: patches
+                .iter()
+                .map(|p| Plane {
+                    normal: p.normal,
+                    offset: p.offset,
+                })
+                .collect(),
+            corners: patches.iter().map(Corners::new).collect(),
+            patches,
             grid,
             slack_len: 1e-9 * diag,
         })
     }
 
+    /// Tests patch `id` against `r` and makes it the nearest hit if it is nearer: the same t
+    /// and the same answer as [`PatchGeom::intersect_if_nearer`], with the division left for
+    /// crossings that may be hits.
+    #[inline(always)]
+    fn test(&self, r: &PreparedRay, id: u32, near: &mut Nearest) {
+        // Plane crossing t = num / den, the operations of `plane_t`.
+        let pl = &self.planes[id as usize];
+        let num = pl.offset - pl.normal.dot(r.o);
+        let den = pl.normal.dot(r.d);
+        // Without dividing, reject a crossing behind the origin (num, den not both nonzero
+        // of one sign: t <= 0 or NaN) or certainly beyond the nearest hit (see `Nearest`).
+        let ahead = (num > 0.0 && den > 0.0) || (num < 0.0 && den < 0.0);
+        if !ahead || num.abs() > (den.abs() * near.far).max(Nearest::TINY) {
+            return;
+        }
+        // The exact t: positive and finite (the quotient may underflow or overflow), nearer
+        // than the nearest hit by the tie rule.
+        let h = Hit {
+            patch: id,
+            t: num / den,
+        };
+        if !(h.t > 0.0 && h.t < f64::INFINITY && h.beats(&near.hit)) {
+            return;
+        }
+        // Watertight inside test on the corners in ray space.
+        let c = &self.corners[id as usize];
+        let (px, py) = r.project(&c.rows);
+        if inside_projected(&px, &py, c.n) {
+            near.set(h);
+        }
+    }
+
     /// Nearest hit by testing every patch (except `exclude`).
     pub fn trace_brute(&self, ray: &Ray, exclude: Option<u32>) -> Option<Hit> {
         let r = PreparedRay::new(ray);
-        let mut best = None;
-        for (id, p) in self.patches.iter().enumerate() {
-            let id = id as u32;
-            if Some(id) == exclude {
-                continue;
-            }
-            if let Some(h) = p.intersect_if_nearer(&r, id, &best) {
-                best = Some(h);
+        let exclude = exclude.unwrap_or(NO_PATCH);
+        let mut near = Nearest::new();
+        for id in 0..self.planes.len() as u32 {
+            if id != exclude {
+                self.test(&r, id, &mut near);
             }
         }
-        best
+        near.get()
     }
 
     /// Every patch the ray's half-line `t > 0` hits, sorted by (t, id): for watertightness checks.
     pub fn hits_all(&self, ray: &Ray) -> Vec<Hit> {
         let r = PreparedRay::new(ray);
-        let mut v: Vec<Hit> = self
-            .patches
-            .iter()
-            .enumerate()
-            .filter_map(|(id, p)| p.intersect(&r, id as u32))
+        let mut v: Vec<Hit> = (0..self.planes.len() as u32)
+            .filter_map(|id| {
+                let mut near = Nearest::new();
+                self.test(&r, id, &mut near);
+                near.get()
+            })
             .collect();
         v.sort_by(|a, b| a.t.total_cmp(&b.t).then(a.patch.cmp(&b.patch)));
         v
@@ -294,10 +507,10 @@ impl Tracer {
         self.walk::<true>(ray, exclude)
     }
 
-    /// Nearest hit by 3D-DDA: tests each cell's patches in order of increasing t and stops
-    /// once the next cell starts beyond the best hit plus a slack of 1e-9 of the grid's
-    /// diagonal — so a hit computed a hair beyond its cell can never hide a nearer one in
-    /// the next cell — or when the ray leaves the grid.
+    /// Nearest hit by 3D-DDA: tests each cell's patches in order of increasing t (each patch
+    /// once, see [`Mailbox`]) and stops once the next cell starts beyond the best hit plus a
+    /// slack of 1e-9 of the grid's diagonal — so a hit computed a hair beyond its cell can
+    /// never hide a nearer one in the next cell — or when the ray leaves the grid.
     fn walk<const COUNT: bool>(
         &self,
         ray: &Ray,
@@ -309,34 +522,38 @@ impl Tracer {
         };
         let r = PreparedRay::new(ray);
         let slack_t = self.slack_len / ray.d.length();
-        let mut best: Option<Hit> = None;
+        let exclude = exclude.unwrap_or(NO_PATCH);
+        let mut mailbox = Mailbox::new();
+        let mut near = Nearest::new();
         loop {
+            // Test the cell's patches (counted as the machine would, repeats included).
             let list = self.grid.patches_in(dda.cell());
             if COUNT {
                 counts.cells += 1;
                 counts.nonempty_cells += (!list.is_empty()) as u32;
             }
             for &id in list {
-                if Some(id) == exclude {
+                if id == exclude {
                     continue;
                 }
                 if COUNT {
                     counts.tests += 1;
                 }
-                if let Some(h) = self.patches[id as usize].intersect_if_nearer(&r, id, &best) {
-                    best = Some(h);
+                if !mailbox.seen(id) {
+                    self.test(&r, id, &mut near);
                 }
             }
-            if let Some(b) = best {
-                if dda.t_exit() > b.t + slack_t {
-                    break;
-                }
-            }
-            if !dda.step() {
+            // Step on unless the next cell starts beyond the nearest hit and its slack.
+            let t_stop = if near.hit.patch != NO_PATCH {
+                near.hit.t + slack_t
+            } else {
+                f64::INFINITY
+            };
+            if !dda.step_unless_beyond(t_stop) {
                 break;
             }
         }
-        (best, counts)
+        (near.get(), counts)
     }
 
     /// Calls `f(cell, t_enter, t_exit)` for every cell the ray passes through, in order,
@@ -360,13 +577,21 @@ impl Tracer {
 /// ties between axes step the lowest axis first; every step moves one cell along one axis,
 /// so a walk takes at most `nx + ny + nz` steps and always ends. Boundary crossings are
 /// computed from the boundary table, not accumulated, so no error builds up.
+///
+/// Each axis holds the boundaries it has still to cross after its next one, in crossing
+/// order: a step takes the first, and an axis with none left is at the grid's last cell.
 #[derive(Clone, Debug)]
 pub struct Dda<'g> {
-    grid: &'g Grid,
-    o: DVec3,
-    inv: DVec3,
+    o: [f64; 3],
+    inv: [f64; 3],
     c: [usize; 3],
-    step: [isize; 3],
+    /// The current cell's linear index, kept in step with `c`.
+    idx: usize,
+    /// Per axis: the linear-index change of one step (0 for a zero component).
+    stride: [isize; 3],
+    /// Per axis: the boundaries beyond the next crossing, in crossing order.
+    ahead: [&'g [f64]; 3],
+    /// Per axis: t of the next crossing.
     t_max: [f64; 3],
     t_enter: f64,
     /// Where the ray leaves the grid's box.
@@ -375,48 +600,61 @@ pub struct Dda<'g> {
 
 impl<'g> Dda<'g> {
     /// Starts the walk where the ray (t >= 0) enters the grid; `None` if it misses the grid.
-    #[inline]
+    #[inline(always)]
     pub fn new(grid: &'g Grid, ray: &Ray) -> Option<Self> {
-        let inv = DVec3::ONE / ray.d;
+        let (o, d) = (ray.o.to_array(), ray.d.to_array());
+        let inv = d.map(|x| 1.0 / x);
         // Clip the ray to the grid box (slab test; a zero component only checks the slab).
         let bx = grid.aabb();
+        let (lo, hi) = (bx.lo.to_array(), bx.hi.to_array());
         let mut t0 = 0.0f64;
         let mut t1 = f64::INFINITY;
+        let mut outside = false;
         for a in 0..3 {
-            if ray.d[a] == 0.0 {
-                if ray.o[a] < bx.lo[a] || ray.o[a] > bx.hi[a] {
-                    return None;
-                }
+            if d[a] == 0.0 {
+                outside |= o[a] < lo[a] || o[a] > hi[a];
                 continue;
             }
-            let ta = (bx.lo[a] - ray.o[a]) * inv[a];
-            let tb = (bx.hi[a] - ray.o[a]) * inv[a];
+            let ta = (lo[a] - o[a]) * inv[a];
+            let tb = (hi[a] - o[a]) * inv[a];
             t0 = t0.max(ta.min(tb));
             t1 = t1.min(ta.max(tb));
         }
-        if t0 > t1 || t0.is_nan() || t1.is_nan() {
+        if outside || t0 > t1 || t0.is_nan() || t1.is_nan() {
             return None;
         }
-        let start = if t0 > 0.0 { ray.o + ray.d * t0 } else { ray.o };
+        // The entry cell; per axis the stride, the next crossing and the boundaries beyond.
+        let start = if t0 > 0.0 {
+            [0, 1, 2].map(|a| o[a] + d[a] * t0)
+        } else {
+            o
+        };
+        let dims = grid.dims;
+        let axis_stride = [1, dims[0] as isize, (dims[0] * dims[1]) as isize];
         let mut c = [0usize; 3];
-        let mut step = [0isize; 3];
+        let mut stride = [0isize; 3];
+        let mut ahead: [&[f64]; 3] = [&[]; 3];
         let mut t_max = [f64::INFINITY; 3];
         for a in 0..3 {
             c[a] = grid.coord(a, start[a]);
-            if ray.d[a] > 0.0 {
-                step[a] = 1;
-                t_max[a] = (grid.boundaries[a][c[a] + 1] - ray.o[a]) * inv[a];
-            } else if ray.d[a] < 0.0 {
-                step[a] = -1;
-                t_max[a] = (grid.boundaries[a][c[a]] - ray.o[a]) * inv[a];
+            if d[a] != 0.0 {
+                // Stepping up, the next crossing is boundary c + 1; stepping down, c (which
+                // is `dims − c` counted from the top).
+                let up = d[a] > 0.0;
+                let b = grid.boundaries_along(a, up);
+                let next = if up { c[a] + 1 } else { dims[a] - c[a] };
+                stride[a] = if up { axis_stride[a] } else { -axis_stride[a] };
+                t_max[a] = (b[next] - o[a]) * inv[a];
+                ahead[a] = &b[next + 1..];
             }
         }
         Some(Dda {
-            grid,
-            o: ray.o,
+            o,
             inv,
             c,
-            step,
+            idx: grid.index(c),
+            stride,
+            ahead,
             t_max,
             t_enter: t0,
             t_end: t1,
@@ -426,7 +664,7 @@ impl<'g> Dda<'g> {
     /// The current cell's linear index.
     #[inline]
     pub fn cell(&self) -> usize {
-        self.grid.index(self.c)
+        self.idx
     }
 
     /// The current cell's coordinates.
@@ -449,7 +687,7 @@ impl<'g> Dda<'g> {
     }
 
     /// The axis of the next step: the smallest t_max, ties to the lowest axis.
-    #[inline]
+    #[inline(always)]
     fn next_axis(&self) -> usize {
         let mut a = 0;
         if self.t_max[1] < self.t_max[a] {
@@ -462,25 +700,46 @@ impl<'g> Dda<'g> {
     }
 
     /// Steps into the next cell; false when the ray leaves the grid.
-    #[inline]
+    #[inline(always)]
     pub fn step(&mut self) -> bool {
-        let a = self.next_axis();
-        let t_next = self.t_max[a];
+        self.step_unless_beyond(f64::INFINITY)
+    }
+
+    /// Steps into the next cell unless the current one ends beyond `t_stop` (its t_exit is
+    /// greater) or the ray leaves the grid; false then.
+    #[inline(always)]
+    fn step_unless_beyond(&mut self, t_stop: f64) -> bool {
+        // One code path per axis: every index is a constant, so the state stays in registers.
+        match self.next_axis() {
+            0 => self.step_axis::<0>(t_stop),
+            1 => self.step_axis::<1>(t_stop),
+            _ => self.step_axis::<2>(t_stop),
+        }
+    }
+
+    /// Steps along axis `A` (the next axis), as [`Dda::step_unless_beyond`].
+    #[inline(always)]
+    fn step_axis<const A: usize>(&mut self, t_stop: f64) -> bool {
+        let t_next = self.t_max[A];
+        // The stopping rule on the current cell's exit, min(t_next, t_end) > t_stop (t_end
+        // is never NaN; a NaN t_next leaves t_end).
+        if (t_next > t_stop || t_next.is_nan()) & (self.t_end > t_stop) {
+            return false;
+        }
+        // Leaving the box, or no axis left to step (every component zero).
         if t_next > self.t_end || t_next == f64::INFINITY {
             return false;
         }
-        let ni = self.c[a] as isize + self.step[a];
-        if ni < 0 || ni >= self.grid.dims[a] as isize {
+        // Leaving the grid through its last cell on this axis: no boundary beyond.
+        let Some((&b, ahead)) = self.ahead[A].split_first() else {
             return false;
-        }
-        let b = &self.grid.boundaries[a];
-        self.c[a] = ni as usize;
-        self.t_enter = t_next;
-        self.t_max[a] = if self.step[a] > 0 {
-            (b[self.c[a] + 1] - self.o[a]) * self.inv[a]
-        } else {
-            (b[self.c[a]] - self.o[a]) * self.inv[a]
         };
+        // Move one cell; the axis's next crossing is the boundary beyond.
+        self.ahead[A] = ahead;
+        self.c[A] = self.c[A].wrapping_add_signed(self.stride[A].signum());
+        self.idx = self.idx.wrapping_add_signed(self.stride[A]);
+        self.t_enter = t_next;
+        self.t_max[A] = (b - self.o[A]) * self.inv[A];
         true
     }
 }
@@ -567,5 +826,188 @@ mod tests {
         let tiny = f64::EPSILON;
         assert!(det2_sign(1.0 + tiny, 1.0, 1.0, 1.0) > 0.0);
         assert!(det2_sign(1.0, 1.0 + tiny, 1.0, 1.0) < 0.0);
+    }
+
+    /// The division-free rejection never drops a crossing whose t would not exceed the
+    /// nearest hit's, over ordinary, tiny (subnormal products) and huge magnitudes.
+    #[test]
+    fn the_far_bound_rejects_only_crossings_beyond_the_hit() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(3);
+        let (mut near_misses, mut rejections) = (0, 0);
+        for i in 0..200_000 {
+            let t_hit: f64 = 10f64.powf(rng.gen_range(-300.0..300.0));
+            let mut near = Nearest::new();
+            near.set(Hit { patch: 0, t: t_hit });
+            let den: f64 = 10f64.powf(rng.gen_range(-320.0..300.0));
+            // Numerators around t_hit·den, a few ulps either side (or anywhere, sometimes).
+            let num = if i % 4 == 0 {
+                10f64.powf(rng.gen_range(-320.0..300.0))
+            } else {
+                let x = t_hit * den;
+                let ulps = rng.gen_range(-4i64..=4);
+                f64::from_bits((x.to_bits() as i64 + ulps).max(1) as u64)
+            };
+            if !(num.is_finite() && num > 0.0 && den > 0.0) {
+                continue;
+            }
+            let rejected = num > (den * near.far).max(Nearest::TINY);
+            if rejected {
+                assert!(num / den > t_hit, "num {num:e} den {den:e} t {t_hit:e}");
+                rejections += 1;
+            } else {
+                near_misses += (num / den > t_hit) as u32;
+            }
+        }
+        // Both ways taken: crossings just beyond the hit are kept (and rejected after the
+        // division).
+        assert!(
+            rejections > 10_000 && near_misses > 1000,
+            "{rejections} {near_misses}"
+        );
+    }
+
+    /// The stepper against a plain Amanatides & Woo walk (indices recomputed each step from
+    /// the boundary table): the same cells and the same bits of t, adversarial rays included.
+    #[test]
+    fn dda_matches_a_plain_walk() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(5);
+        let g = Grid::empty(
+            Aabb {
+                lo: DVec3::new(-0.2, 0.0, 0.1),
+                hi: DVec3::new(0.9, 0.7, 1.0),
+            },
+            0.07,
+        )
+        .unwrap();
+        let b = &g.boundaries;
+        for i in 0..20_000 {
+            let mut o = DVec3::new(
+                rng.gen_range(-0.5..1.2),
+                rng.gen_range(-0.3..1.0),
+                rng.gen_range(-0.2..1.3),
+            );
+            let mut d = DVec3::new(
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+                rng.gen_range(-1.0..1.0),
+            );
+            if i % 3 == 0 {
+                d[rng.gen_range(0..3)] = 0.0;
+            }
+            if i % 5 == 0 {
+                for a in 0..3 {
+                    o[a] = b[a][rng.gen_range(0..b[a].len())];
+                }
+                d = DVec3::new(1.0, -1.0, 1.0) * d.signum();
+            }
+            if d == DVec3::ZERO {
+                d = DVec3::X;
+            }
+            let ray = Ray { o, d };
+            let mut got = Vec::new();
+            if let Some(mut dda) = Dda::new(&g, &ray) {
+                loop {
+                    got.push((dda.coords(), dda.cell(), dda.t_enter().to_bits()));
+                    if !dda.step() {
+                        break;
+                    }
+                }
+            }
+            assert_eq!(got, plain_walk(&g, &ray), "ray {ray:?}");
+        }
+    }
+
+    /// Amanatides & Woo as first written: clip, bin the entry point, then per step the axis
+    /// of the least t_max (ties to the lowest) and its next crossing from the table.
+    fn plain_walk(g: &Grid, ray: &Ray) -> Vec<([usize; 3], usize, u64)> {
+        let inv = DVec3::ONE / ray.d;
+        let bx = g.aabb();
+        let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+        for a in 0..3 {
+            if ray.d[a] == 0.0 {
+                if ray.o[a] < bx.lo[a] || ray.o[a] > bx.hi[a] {
+                    return Vec::new();
+                }
+                continue;
+            }
+            let ta = (bx.lo[a] - ray.o[a]) * inv[a];
+            let tb = (bx.hi[a] - ray.o[a]) * inv[a];
+            t0 = t0.max(ta.min(tb));
+            t1 = t1.min(ta.max(tb));
+        }
+        if t0 > t1 || t0.is_nan() || t1.is_nan() {
+            return Vec::new();
+        }
+        let start = if t0 > 0.0 { ray.o + ray.d * t0 } else { ray.o };
+        let mut c = [0usize; 3];
+        let mut t_max = [f64::INFINITY; 3];
+        let crossing = |a: usize, c: usize| {
+            let k = if ray.d[a] > 0.0 { c + 1 } else { c };
+            (g.boundaries[a][k] - ray.o[a]) * inv[a]
+        };
+        for a in 0..3 {
+            c[a] = g.coord(a, start[a]);
+            if ray.d[a] != 0.0 {
+                t_max[a] = crossing(a, c[a]);
+            }
+        }
+        let mut t_enter = t0;
+        let mut out = Vec::new();
+        loop {
+            out.push((c, g.index(c), t_enter.to_bits()));
+            let mut a = 0;
+            for k in 1..3 {
+                if t_max[k] < t_max[a] {
+                    a = k;
+                }
+            }
+            let t = t_max[a];
+            if t > t1 || t == f64::INFINITY {
+                return out;
+            }
+            let ni = c[a] as isize + if ray.d[a] > 0.0 { 1 } else { -1 };
+            if ni < 0 || ni >= g.dims[a] as isize {
+                return out;
+            }
+            c[a] = ni as usize;
+            t_enter = t;
+            t_max[a] = crossing(a, c[a]);
+        }
+    }
+
+    /// The tracer's test and `PatchGeom::intersect` find the same hits with the same bits of
+    /// t, triangles and rays through shared edges and vertices included.
+    #[test]
+    fn tracer_test_equals_patch_intersect() {
+        use crate::gen::{generate, Kind, DEFAULT_SEED};
+        use rand::{Rng, SeedableRng};
+        let scene = generate(Kind::StressEdges, DEFAULT_SEED);
+        let tr = Tracer::new(&scene, 0.05).unwrap();
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(9);
+        for i in 0..2_000 {
+            let p = &scene.patches[rng.gen_range(0..scene.patches.len())];
+            // Aim at a vertex (every other ray) or a random point of the patch.
+            let target = if i % 2 == 0 {
+                p.vertices[rng.gen_range(0..p.vertices.len())]
+            } else {
+                p.centroid() + (p.vertices[0] - p.centroid()) * rng.gen::<f64>()
+            };
+            let o = DVec3::new(rng.gen(), rng.gen(), rng.gen());
+            let ray = Ray { o, d: target - o };
+            let r = PreparedRay::new(&ray);
+            let by_geom: Vec<(u32, u64)> = (0..tr.patches.len() as u32)
+                .filter_map(|id| tr.patches[id as usize].intersect(&r, id))
+                .map(|h| (h.patch, h.t.to_bits()))
+                .collect();
+            let mut by_tracer: Vec<(u32, u64)> = tr
+                .hits_all(&ray)
+                .iter()
+                .map(|h| (h.patch, h.t.to_bits()))
+                .collect();
+            by_tracer.sort_unstable();
+            assert_eq!(by_geom, by_tracer, "ray {ray:?}");
+        }
     }
 }

@@ -265,6 +265,8 @@ pub struct VcdWriter {
     /// True once the window's opening dump is written.
     window_open: bool,
     samples: u64,
+    /// This sample takes `report`'s fast path.
+    fast: bool,
     timestamps: u64,
     /// The first error; later calls do nothing and `finish` reports it.
     error: Option<String>,
@@ -298,6 +300,7 @@ impl VcdWriter {
             header_done: false,
             window_open: false,
             samples: 0,
+            fast: false,
             timestamps: 0,
             error: None,
             scratch: String::new(),
@@ -370,6 +373,24 @@ impl VcdWriter {
 
     /// One probe call: checks the layout (first sample: adds the slot) and stages the value.
     fn report(&mut self, scope: &str, name: &str, width: u32, kind: SignalKind, v: ValRef) {
+        // Fast path, after the header and off the layout-check samples: one slot lookup,
+        // a width/kind check and a value compare.
+        if self.fast {
+            let i = self.pos;
+            if let Some(s) = self.slots.get_mut(i) {
+                if s.width == width && s.kind == kind {
+                    self.pos += 1;
+                    if !s.value.equals(v) {
+                        s.value.set(v);
+                        if !s.dirty && s.id.is_some() {
+                            s.dirty = true;
+                            self.dirty.push(i);
+                        }
+                    }
+                    return;
+                }
+            }
+        }
         if self.error.is_some() {
             return;
         }
@@ -413,12 +434,14 @@ impl VcdWriter {
             ));
             return;
         };
-        // The layout check: name, width and kind on every call; the scope (the longer string)
-        // on the first samples and every 64th (every sample in debug builds), which keeps the
-        // check from dominating the writer's time.
+        // The layout check: width and kind on every call; the names (string compares) on the
+        // first samples and every 64th (every sample in debug builds), which keeps the check
+        // from dominating the writer's time.
         let full_check =
             cfg!(debug_assertions) || self.samples <= 4 || self.samples.is_multiple_of(64);
-        if s.name != name || s.width != width || s.kind != kind || (full_check && s.scope != scope)
+        if s.width != width
+            || s.kind != kind
+            || (full_check && (s.name != name || s.scope != scope))
         {
             let msg = format!(
                 "signal {} of a sample is {scope}.{name}, but {}.{} in the first sample",
@@ -576,6 +599,10 @@ impl Probe for VcdWriter {
         self.t = Some(t);
         self.pos = 0;
         self.samples += 1;
+        // Samples that check the layout take the full path (see `report`).
+        self.fast = self.header_done
+            && self.error.is_none()
+            && !(cfg!(debug_assertions) || self.samples <= 4 || self.samples.is_multiple_of(64));
     }
 
     fn bits(&mut self, scope: &str, name: &str, width: u32, value: u64) {
@@ -686,12 +713,18 @@ fn write_value<W: Write>(w: &mut vcd::Writer<W>, s: &Slot, scratch: &mut String)
             w.change_scalar(id, if *v != 0 { Value::V1 } else { Value::V0 })
         }
         Val::Bits(v) => {
-            // The crate's `change_vector` writes one `write!` per bit; `{:b}` gives the same
-            // line (leading zeros dropped, which VCD zero-extends) in one call.
-            use std::fmt::Write as _;
+            // The crate's `change_vector` writes one `write!` per bit; this writes the same
+            // line (leading zeros dropped, which VCD zero-extends) as bytes, no formatting.
             scratch.clear();
-            let _ = write!(scratch, "b{v:b} {}", s.id_text);
-            writeln!(w.writer(), "{scratch}")
+            scratch.push('b');
+            let n = (64 - v.leading_zeros()).max(1);
+            for b in (0..n).rev() {
+                scratch.push(if (v >> b) & 1 == 1 { '1' } else { '0' });
+            }
+            scratch.push(' ');
+            scratch.push_str(&s.id_text);
+            scratch.push('\n');
+            w.writer().write_all(scratch.as_bytes())
         }
     }
 }
