@@ -328,10 +328,10 @@ pub fn report(r: &PaperResults) -> String {
         s,
         "# The paper's experiments on shellsim's machine\n\n\
          Regenerate with `shellsim paper --out docs/paper` (every figure, CSV and this report;\n\
-         a few minutes on 2 cores). The machine is `hw/configs/paper.toml`: {} CTUs per cluster,\n\
+         under a minute on 2 cores). The machine is `hw/configs/paper.toml`: {} CTUs per cluster,\n\
          {} cycles per DDA step, memory latency {} cycles (1 word per cycle), ray buffer {} jobs,\n\
          patch buffer {} records, ICU depth {} stages; balancing: work-items of {} jobs, sampling\n\
-         interval {} cycles, link latency {} cycles at {} word(s) per cycle, victim {:?}. Each\n\
+         interval {} cycles, link latency {} cycles at {} word(s) per cycle, victim {}. Each\n\
          experiment varies the number of clusters (ICUs), balancing and the work-item size and keeps\n\
          the rest. The source is patch 0 (the paper's Table 12.1 otherwise: 969 low-resolution rays,\n\
          25 subregions, cell 0.05, shell radius 0.289). Every run's per-ray results equal the untimed\n\
@@ -346,7 +346,10 @@ pub fn report(r: &PaperResults) -> String {
         b.sampling_interval,
         b.link_latency,
         b.link_words_per_cycle,
-        b.victim
+        match b.victim {
+            shellsim_hw::machine_config::VictimPolicy::MostPending => "most-pending",
+            shellsim_hw::machine_config::VictimPolicy::RoundRobin => "round-robin",
+        }
     );
     let _ = writeln!(
         s,
