@@ -173,7 +173,7 @@ impl<'a> Machine<'a> {
                 .map(|_| (0..k).map(|_| Link::new(2)).collect())
                 .collect(),
             occupancy: vec![0; nc],
-            memory: Memory::new(cfg.machine.arbiter, cfg.machine.memory_latency, words),
+            memory: Memory::new(cfg.machine.arbiter, cfg.machine.memory_latency, words, nc),
             requests: (0..n_req)
                 .map(|_| Link::new(cfg.machine.request_queue_capacity as usize))
                 .collect(),

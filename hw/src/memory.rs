@@ -5,8 +5,9 @@
 //! requesters none waits more than N − 1 grants of the others (fair); fixed priority always
 //! takes the lowest-numbered requester (simple, may starve the others — an option for
 //! studies). A grant occupies the port for one cycle per word of the patch record; the
-//! record reaches the requester's patch buffer `latency + words` cycles after the grant. A
-//! full patch buffer holds delivery back, and the held record keeps later ones behind it.
+//! record reaches the requester's patch buffer `latency + words` cycles after the grant.
+//! Records wait in one delivery queue per cluster: a full patch buffer holds back only its
+//! own cluster's records, never another cluster's.
 
 use crate::link::Link;
 use crate::machine_config::ArbiterPolicy;
@@ -42,22 +43,24 @@ pub struct Memory {
     words: u64,
     port_free_at: u64,
     next: usize,
-    inflight: VecDeque<InFlight>,
+    /// Records on their way, one queue per cluster (each in grant order).
+    inflight: Vec<VecDeque<InFlight>>,
     /// The requester granted last (for waveforms); `u32::MAX` before the first grant.
     pub last_grant: u32,
     pub stats: MemoryStats,
 }
 
 impl Memory {
-    /// A memory with `latency` cycles and `words` words per patch record.
-    pub fn new(policy: ArbiterPolicy, latency: u32, words: u32) -> Self {
+    /// A memory serving `clusters` clusters, with `latency` cycles and `words` words per
+    /// patch record.
+    pub fn new(policy: ArbiterPolicy, latency: u32, words: u32, clusters: usize) -> Self {
         Memory {
             policy,
             latency: latency as u64,
             words: words as u64,
             port_free_at: 0,
             next: 0,
-            inflight: VecDeque::new(),
+            inflight: vec![VecDeque::new(); clusters],
             last_grant: u32::MAX,
             stats: MemoryStats::default(),
         }
@@ -65,7 +68,7 @@ impl Memory {
 
     /// Records on their way.
     pub fn inflight(&self) -> usize {
-        self.inflight.len()
+        self.inflight.iter().map(VecDeque::len).sum()
     }
 
     /// True when the port is occupied at cycle `now`.
@@ -81,20 +84,24 @@ impl Memory {
         if self.port_free_at >= now {
             t = Some(self.port_free_at);
         }
-        if let Some(f) = self.inflight.front() {
-            if f.ready > now {
-                t = Some(t.map_or(f.ready, |x| x.min(f.ready)));
+        for q in &self.inflight {
+            if let Some(f) = q.front() {
+                if f.ready > now {
+                    t = Some(t.map_or(f.ready, |x| x.min(f.ready)));
+                }
             }
         }
         t
     }
 
-    /// The ready cycle of the record at the front, if it is ready at `now`.
+    /// The earliest ready cycle among the queues' oldest records, if one is ready at `now`.
     pub fn inflight_ready(&self, now: u64) -> Option<u64> {
         self.inflight
-            .front()
+            .iter()
+            .filter_map(|q| q.front())
             .filter(|f| f.ready <= now)
             .map(|f| f.ready)
+            .min()
     }
 
     /// Accounts `n` skipped cycles (the port stays as it was).
@@ -114,17 +121,22 @@ impl Memory {
         if now < self.port_free_at {
             self.stats.busy_cycles += 1;
         }
-        if let Some(f) = self.inflight.front() {
-            if f.ready <= now {
-                let b = &mut buffers[f.cluster as usize];
-                if b.can_push() {
-                    b.push(f.arrival);
-                    self.inflight.pop_front();
-                } else {
-                    self.stats.delivery_stall_cycles += 1;
+        // Deliver: each cluster's oldest ready record, if its patch buffer has room.
+        let mut stalled = false;
+        for (c, q) in self.inflight.iter_mut().enumerate() {
+            if let Some(f) = q.front() {
+                if f.ready <= now {
+                    let b = &mut buffers[c];
+                    if b.can_push() {
+                        b.push(f.arrival);
+                        q.pop_front();
+                    } else {
+                        stalled = true;
+                    }
                 }
             }
         }
+        self.stats.delivery_stall_cycles += stalled as u64;
         if now < self.port_free_at {
             return;
         }
@@ -141,7 +153,7 @@ impl Memory {
                 self.stats.wait_cycles += now - r.issued;
                 self.stats.words += self.words;
                 self.port_free_at = now + self.words;
-                self.inflight.push_back(InFlight {
+                self.inflight[r.cluster as usize].push_back(InFlight {
                     ready: now + self.latency + self.words,
                     cluster: r.cluster,
                     arrival: PatchArrival {

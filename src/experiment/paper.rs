@@ -52,8 +52,8 @@ pub struct PaperResults {
     pub what_if: Vec<WhatIf>,
 }
 
-/// Patch-buffer depth of the what-if variants that never fill it (no head-of-line blocking
-/// in the memory's delivery queue on the committed scenes).
+/// Patch-buffer depth of the what-if variants that never fill it (no record ever waits for
+/// room on the committed scenes).
 pub const DEEP_PATCH_BUFFER: u32 = 1024;
 
 /// The what-if variants: the paper machine, deeper patch buffers, more CTUs, both.
@@ -566,12 +566,11 @@ pub fn report(r: &PaperResults) -> String {
              held by back-pressure. Balancing moves only jobs that wait in a ray buffer (a victim\n\
              keeps one for its own ICU); {} requests found no cluster with two or more jobs waiting —\n\
              most of the time the whole machine is short of jobs, not some clusters.\n\
-             - **The memory's delivery is head-of-line blocked** for {} of all cycles: records come\n\
-             back in grant order through one queue, and a ready record whose cluster's patch buffer\n\
-             ({} records) is full holds every record behind it, for every cluster. A patch buffer\n\
-             fills because its CTU issues one job per cycle for a patch against all its remaining\n\
-             rays (hundreds of cycles per patch) and takes the next patch only then. The port itself\n\
-             is busy {} of the time.",
+             - **Patch delivery waits** in {} of all cycles: a ready record waits for room in its\n\
+             own cluster's patch buffer ({} records; each cluster has its own delivery queue, so one\n\
+             full buffer no longer holds up the others). A patch buffer fills because its CTU issues\n\
+             one job per cycle for a patch against all its remaining rays (hundreds of cycles per\n\
+             patch) and takes the next patch only then. The port itself is busy {} of the time.",
             pc(p.icu_idle_fraction()),
             pc(frac(p.icu_stalled, icu_total)),
             p.retries,
@@ -692,8 +691,8 @@ pub fn report(r: &PaperResults) -> String {
          P = 2, 4, 8, on stress-skewed {}. It reaches the paper's figure only at: {}.\n\n\
          Balancing gains less than in the paper because what remains after static partitioning is\n\
          mostly not ICU work waiting in the wrong ray buffer: it is the busiest sector's traversal\n\
-         and job issue (which stay on its CTU), the memory's shared delivery queue (which stalls\n\
-         every cluster at once) and the joins (which empty all ray buffers together). The issue's\n\
+         and job issue (which stay on its CTU), patch buffers waiting for their CTU to issue, and\n\
+         the joins (which empty all ray buffers together). The issue's\n\
          aim of {} of ideal at 8 ICUs is not met on the paper's machine ({}); the what-if table\n\
          shows how far the hardware changes above go.\n",
         pc(PAPER_GAIN),
