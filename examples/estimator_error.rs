@@ -6,28 +6,10 @@ use glam::DVec3;
 use shellsim::analytic;
 use shellsim::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::form_factors;
-use shellsim::scene::{Aabb, Patch, Scene};
 use shellsim::trace::Tracer;
 
-fn unit_cube() -> Scene {
-    let q =
-        |v: [[f64; 3]; 4]| Patch::new(v.iter().map(|a| DVec3::from_array(*a)).collect(), 0.0, 0.5);
-    Scene {
-        name: "cube".into(),
-        bounds: Aabb {
-            lo: DVec3::ZERO,
-            hi: DVec3::ONE,
-        },
-        patches: vec![
-            q([[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]),
-            q([[0., 0., 1.], [0., 1., 1.], [1., 1., 1.], [1., 0., 1.]]),
-            q([[0., 0., 0.], [0., 1., 0.], [0., 1., 1.], [0., 0., 1.]]),
-        ],
-    }
-}
-
 fn main() {
-    let scene = unit_cube();
+    let scene = shellsim::gen::unit_cube();
     let tr = Tracer::new(&scene, 0.05).unwrap();
     let centre = DVec3::new(0.5, 0.5, 0.0);
     let cases = [

@@ -732,21 +732,8 @@ fn default_job() -> Result<()> {
 
 /// Floor centre → ceiling of the unit cube by 10⁵ Malley rays: (estimate, analytic, σ).
 fn analytic_check() -> (f64, f64, f64) {
-    use crate::scene::{Aabb, Patch};
     use glam::DVec3;
-    let q =
-        |v: [[f64; 3]; 4]| Patch::new(v.iter().map(|a| DVec3::from_array(*a)).collect(), 0.0, 0.5);
-    let cube = Scene {
-        name: "unit cube".into(),
-        bounds: Aabb {
-            lo: DVec3::ZERO,
-            hi: DVec3::ONE,
-        },
-        patches: vec![
-            q([[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]),
-            q([[0., 0., 1.], [0., 1., 1.], [1., 1., 1.], [1., 0., 1.]]),
-        ],
-    };
+    let cube = crate::gen::unit_cube();
     let tracer = Tracer::new(&cube, DEFAULT_CELL).expect("the unit cube builds");
     let centre = DVec3::new(0.5, 0.5, 0.0);
     let n = 100_000;
@@ -758,7 +745,7 @@ fn analytic_check() -> (f64, f64, f64) {
         1,
     );
     let (hits, _) = reference::cast(&tracer, &set, Some(0), None);
-    let (ff, _, _) = reference::form_factors(&hits, &set.weights, 2);
+    let (ff, _, _) = reference::form_factors(&hits, &set.weights, cube.patches.len());
     let f = ff.iter().find(|x| x.patch == 1).map_or(0.0, |x| x.value);
     let truth = crate::analytic::point_to_polygon(centre, DVec3::Z, &cube.patches[1].vertices);
     // Stratified error model of tests/convergence.rs.

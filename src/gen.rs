@@ -112,6 +112,29 @@ impl Kind {
 /// The seed the committed `scenes/*.json` files were generated with.
 pub const DEFAULT_SEED: u64 = 1;
 
+/// The unit cube's six walls as single inward-facing quads: 0 floor (z = 0), 1 ceiling,
+/// 2 x = 0, 3 x = 1, 4 y = 0, 5 y = 1. The geometry of the analytic checks (floor centre →
+/// ceiling, Howell C-11 and C-14).
+pub fn unit_cube() -> Scene {
+    let q =
+        |v: [[f64; 3]; 4]| Patch::new(v.iter().map(|a| DVec3::from_array(*a)).collect(), 0.0, 0.5);
+    Scene {
+        name: "unit-cube".into(),
+        bounds: Aabb {
+            lo: DVec3::ZERO,
+            hi: DVec3::ONE,
+        },
+        patches: vec![
+            q([[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]),
+            q([[0., 0., 1.], [0., 1., 1.], [1., 1., 1.], [1., 0., 1.]]),
+            q([[0., 0., 0.], [0., 1., 0.], [0., 1., 1.], [0., 0., 1.]]),
+            q([[1., 0., 0.], [1., 0., 1.], [1., 1., 1.], [1., 1., 0.]]),
+            q([[0., 0., 0.], [0., 0., 1.], [1., 0., 1.], [1., 0., 0.]]),
+            q([[0., 1., 0.], [1., 1., 0.], [1., 1., 1.], [0., 1., 1.]]),
+        ],
+    }
+}
+
 /// Builds scene `kind` from `seed`; the same kind and seed always give the same scene, bit
 /// for bit. Scenes without random parts (`scene2`, `cornell`) ignore the seed.
 pub fn generate(kind: Kind, seed: u64) -> Scene {

@@ -1,8 +1,7 @@
 //! Helpers shared by the integration tests: committed scenes and small built-in geometries.
 #![allow(dead_code)]
 
-use glam::DVec3;
-use shellsim::scene::{Aabb, Patch, Scene};
+use shellsim::scene::Scene;
 use std::path::PathBuf;
 
 /// The committed scene files, by file name.
@@ -31,21 +30,5 @@ pub fn load(name: &str) -> Scene {
 
 /// The unit cube's six walls facing inward: 0 floor (z=0), 1 ceiling, 2 x=0, 3 x=1, 4 y=0, 5 y=1.
 pub fn unit_cube() -> Scene {
-    let q =
-        |v: [[f64; 3]; 4]| Patch::new(v.iter().map(|a| DVec3::from_array(*a)).collect(), 0.0, 0.5);
-    Scene {
-        name: "cube".into(),
-        bounds: Aabb {
-            lo: DVec3::ZERO,
-            hi: DVec3::ONE,
-        },
-        patches: vec![
-            q([[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]]),
-            q([[0., 0., 1.], [0., 1., 1.], [1., 1., 1.], [1., 0., 1.]]),
-            q([[0., 0., 0.], [0., 1., 0.], [0., 1., 1.], [0., 0., 1.]]),
-            q([[1., 0., 0.], [1., 0., 1.], [1., 1., 1.], [1., 1., 0.]]),
-            q([[0., 0., 0.], [0., 0., 1.], [1., 0., 1.], [1., 0., 0.]]),
-            q([[0., 1., 0.], [1., 1., 0.], [1., 1., 1.], [0., 1., 1.]]),
-        ],
-    }
+    shellsim::gen::unit_cube()
 }
