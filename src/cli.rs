@@ -1,6 +1,6 @@
 //! Command-line interface: argument types (clap) and the jobs they run.
 
-use crate::error::{write_atomic, Error, Result};
+use crate::error::{write_json, Error, Result};
 use crate::grid::DEFAULT_CELL;
 use crate::rays::{hemisphere_rays, Directions, Origins, PAPER_RAYS};
 use crate::reference::{self, ReferenceReport, RunInfo};
@@ -302,8 +302,7 @@ pub fn run(cli: Cli) -> Result<()> {
             let report = reference_job(&scene, &a)?;
             print_reference(&report, &scene);
             if let Some(out) = &a.json {
-                let text = serde_json::to_string_pretty(&report).expect("a report serializes");
-                write_atomic(out, (text + "\n").as_bytes())?;
+                write_json(out, &report)?;
             }
             Ok(())
         }
@@ -330,12 +329,13 @@ pub fn run(cli: Cli) -> Result<()> {
                     #[serde(flatten)]
                     report: &'a crate::check::CheckReport,
                 }
-                let text = serde_json::to_string_pretty(&Out {
-                    datapath: cfg,
-                    report: &report,
-                })
-                .expect("a report serializes");
-                write_atomic(out, (text + "\n").as_bytes())?;
+                write_json(
+                    out,
+                    &Out {
+                        datapath: cfg,
+                        report: &report,
+                    },
+                )?;
             }
             if report.unexplained_mismatches > 0 {
                 return Err(Error::Check(format!(
@@ -574,12 +574,13 @@ pub fn machine_job(
             config: shellsim_hw::machine_config::MachineConfig,
             stats: &'a crate::run::RunStats,
         }
-        let text = serde_json::to_string_pretty(&Out {
-            config: *cfg,
-            stats: &out.stats,
-        })
-        .expect("serializes");
-        write_atomic(out_path, (text + "\n").as_bytes())?;
+        write_json(
+            out_path,
+            &Out {
+                config: *cfg,
+                stats: &out.stats,
+            },
+        )?;
     }
     Ok(out.stats)
 }

@@ -62,6 +62,12 @@ impl Error {
 
 pub type Result<T> = std::result::Result<T, Error>;
 
+/// Writes `value` as pretty-printed JSON (ending in a newline) to `path`, atomically.
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    let text = serde_json::to_string_pretty(value).expect("our reports serialize");
+    write_atomic(path, (text + "\n").as_bytes())
+}
+
 /// Writes `bytes` to `path` atomically: a temporary file beside it is renamed into place,
 /// so an interrupted or failed run never leaves a half-written file that looks complete.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
