@@ -19,7 +19,7 @@ use std::path::Path;
 use std::process::Command;
 
 fn paper_config() -> MachineConfig {
-    shellsim::cli::machine_config(None).unwrap()
+    common::config("paper")
 }
 
 /// Static and balanced runs of `file` at `clusters` clusters and `ratio` on paper.toml.
@@ -49,32 +49,37 @@ fn static_and_balanced(file: &str, clusters: u32, ratio: usize) -> (Point, Point
 
 /// Balancing raises pipeline efficiency and cuts cycles at Hi_Low_Ratio 10 on the paper's
 /// machine (hw/configs/paper.toml): scene2 at 8 ICUs, stress-skewed at 4.
-#[test]
-fn balancing_beats_static_partitioning_on_scene2_and_stress_skewed() {
+fn balancing_beats_static_partitioning(file: &str, icus: u32) {
+    let (off, on) = static_and_balanced(file, icus, 10);
+    let msg = format!(
+        "{file}, {icus} ICUs, ratio 10, paper.toml: efficiency static {:.4} balanced {:.4}, cycles static {} balanced {} ({} jobs moved)",
+        off.pipeline_efficiency, on.pipeline_efficiency, off.cycles, on.cycles, on.jobs_moved
+    );
+    eprintln!("{msg}");
+    assert!(
+        on.pipeline_efficiency > off.pipeline_efficiency,
+        "efficiency: {msg}"
+    );
+    assert!(on.cycles < off.cycles, "cycles: {msg}");
+    assert!(on.jobs_moved > 0, "balancing moved nothing: {msg}");
+    // The partition and the work are shared: only the timing differs.
+    assert_eq!(
+        (off.jobs, off.patch_loads),
+        (on.jobs, on.patch_loads),
+        "{msg}"
+    );
+    for p in [&off, &on] {
+        assert!(p.bound.cycles() <= p.cycles, "bound above cycles: {p:?}");
+    }
+}
+
+mod balancing_beats_static_partitioning {
+    use super::*;
     // On stress-skewed at 8 ICUs one sector's CTU binds (`ctu_issue`, docs/paper/report.md):
     // no balancing of ICUs can shorten that run, so the claim is made at 4 ICUs there.
-    for (file, icus) in [("scene2.json", 8), ("stress-skewed.json", 4)] {
-        let (off, on) = static_and_balanced(file, icus, 10);
-        let msg = format!(
-            "{file}, {icus} ICUs, ratio 10, paper.toml: efficiency static {:.4} balanced {:.4}, cycles static {} balanced {} ({} jobs moved)",
-            off.pipeline_efficiency, on.pipeline_efficiency, off.cycles, on.cycles, on.jobs_moved
-        );
-        eprintln!("{msg}");
-        assert!(
-            on.pipeline_efficiency > off.pipeline_efficiency,
-            "efficiency: {msg}"
-        );
-        assert!(on.cycles < off.cycles, "cycles: {msg}");
-        assert!(on.jobs_moved > 0, "balancing moved nothing: {msg}");
-        // The partition and the work are shared: only the timing differs.
-        assert_eq!(
-            (off.jobs, off.patch_loads),
-            (on.jobs, on.patch_loads),
-            "{msg}"
-        );
-        for p in [&off, &on] {
-            assert!(p.bound.cycles() <= p.cycles, "bound above cycles: {p:?}");
-        }
+    testcases! { balancing_beats_static_partitioning;
+        scene2_8_icus => "scene2.json", 8;
+        stress_skewed_4_icus => "stress-skewed.json", 4;
     }
 }
 

@@ -62,16 +62,19 @@ fn cornell_every_source() {
     no_unexplained("cornell.json", (0..n).collect());
 }
 
-#[test]
-fn stress_scenes() {
-    for f in [
-        "stress-edges.json",
-        "stress-grazing.json",
-        "stress-skewed.json",
-        "stress-dense.json",
-    ] {
-        let n = common::load(f).patches.len();
-        no_unexplained(f, vec![0, n / 3, n / 2, n - 1]);
+/// Sources 0, n/3, n/2 and n−1 of a stress scene.
+fn stress_scene(file: &str) {
+    let n = common::load(file).patches.len();
+    no_unexplained(file, vec![0, n / 3, n / 2, n - 1]);
+}
+
+mod stress {
+    use super::*;
+    testcases! { stress_scene;
+        edges => "stress-edges.json";
+        grazing => "stress-grazing.json";
+        skewed => "stress-skewed.json";
+        dense => "stress-dense.json";
     }
 }
 
@@ -111,15 +114,31 @@ fn brute_equals_grid(file: &str, rays: usize) {
     );
 }
 
-#[test]
-fn brute_equals_grid_in_every_committed_scene() {
-    for f in common::COMMITTED {
-        let rays = if f == "stress-dense.json" {
-            5_000
-        } else {
-            100_000
-        };
-        brute_equals_grid(f, rays);
+mod brute_equals_grid {
+    use super::*;
+    testcases! { brute_equals_grid;
+        scene1 => "scene1.json", 100_000;
+        scene2 => "scene2.json", 100_000;
+        cornell => "cornell.json", 100_000;
+        stress_edges => "stress-edges.json", 100_000;
+        stress_grazing => "stress-grazing.json", 100_000;
+        stress_skewed => "stress-skewed.json", 100_000;
+        stress_dense => "stress-dense.json", 5_000;
+    }
+
+    #[test]
+    fn every_committed_scene_is_listed() {
+        // The list above names every committed scene (the module's tests by their files).
+        let listed = [
+            "scene1.json",
+            "scene2.json",
+            "cornell.json",
+            "stress-edges.json",
+            "stress-grazing.json",
+            "stress-skewed.json",
+            "stress-dense.json",
+        ];
+        assert_eq!(listed, common::COMMITTED);
     }
 }
 

@@ -6,8 +6,7 @@
 mod common;
 
 use serde_json::{json, Value};
-use shellsim::run::{run, RunSpec};
-use shellsim_hw::machine::TickOrder;
+use shellsim::run::run;
 use std::path::{Path, PathBuf};
 
 /// The figures a golden pins.
@@ -39,24 +38,11 @@ fn key_figures(s: &shellsim::run::RunStats) -> Value {
 
 fn golden(scene_file: &str, config: &str) {
     let scene = common::load(scene_file);
-    let cfg_path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("hw/configs")
-        .join(config);
-    let cfg = shellsim::cli::machine_config(Some(&cfg_path)).unwrap();
-    let spec = RunSpec {
-        source: 0,
-        ratio: 1,
-        cell: 0.05,
-        order: TickOrder::Forward,
-    };
-    let out = run(&scene, Path::new(scene_file), &cfg, &spec, None).unwrap();
+    let cfg = common::config(config);
+    let out = run(&scene, Path::new(scene_file), &cfg, &common::spec(), None).unwrap();
     assert_eq!(out.stats.mismatches_vs_fixed, 0);
     let text = serde_json::to_string_pretty(&key_figures(&out.stats)).unwrap() + "\n";
-    let name = format!(
-        "{}__{}.json",
-        scene_file.trim_end_matches(".json"),
-        config.trim_end_matches(".toml")
-    );
+    let name = format!("{}__{}.json", scene_file.trim_end_matches(".json"), config);
     let path: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/golden")
         .join(&name);
@@ -86,28 +72,19 @@ fn golden(scene_file: &str, config: &str) {
     }
 }
 
-macro_rules! goldens {
-    ($($name:ident => $scene:expr, $cfg:expr);* $(;)?) => {$(
-        #[test]
-        fn $name() {
-            golden($scene, $cfg);
-        }
-    )*};
-}
-
-goldens! {
-    scene1_paper => "scene1.json", "paper.toml";
-    scene1_small => "scene1.json", "small.toml";
-    scene2_paper => "scene2.json", "paper.toml";
-    scene2_small => "scene2.json", "small.toml";
-    cornell_paper => "cornell.json", "paper.toml";
-    cornell_small => "cornell.json", "small.toml";
-    stress_edges_paper => "stress-edges.json", "paper.toml";
-    stress_edges_small => "stress-edges.json", "small.toml";
-    stress_grazing_paper => "stress-grazing.json", "paper.toml";
-    stress_grazing_small => "stress-grazing.json", "small.toml";
-    stress_skewed_paper => "stress-skewed.json", "paper.toml";
-    stress_skewed_small => "stress-skewed.json", "small.toml";
-    stress_dense_paper => "stress-dense.json", "paper.toml";
-    stress_dense_small => "stress-dense.json", "small.toml";
+testcases! { golden;
+    scene1_paper => "scene1.json", "paper";
+    scene1_small => "scene1.json", "small";
+    scene2_paper => "scene2.json", "paper";
+    scene2_small => "scene2.json", "small";
+    cornell_paper => "cornell.json", "paper";
+    cornell_small => "cornell.json", "small";
+    stress_edges_paper => "stress-edges.json", "paper";
+    stress_edges_small => "stress-edges.json", "small";
+    stress_grazing_paper => "stress-grazing.json", "paper";
+    stress_grazing_small => "stress-grazing.json", "small";
+    stress_skewed_paper => "stress-skewed.json", "paper";
+    stress_skewed_small => "stress-skewed.json", "small";
+    stress_dense_paper => "stress-dense.json", "paper";
+    stress_dense_small => "stress-dense.json", "small";
 }

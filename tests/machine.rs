@@ -1,274 +1,258 @@
 //! The cycle-level machine: per-ray results equal the untimed fixed-point model over a
-//! matrix of scenes × clusters × CTUs × arbiter × buffers × cycle jump; ticking units in
-//! reverse or shuffled order changes nothing; conservation of jobs, results and loads.
+//! matrix of scenes × clusters × CTUs × arbiter × buffers × cycle jump, one `#[test]` per
+//! cell (`cargo test --test machine scene1::c4::k2::round_robin::small::jump` runs one);
+//! ticking units in reverse or shuffled order changes nothing, with balancing off and on;
+//! conservation of jobs, results and loads.
 
 mod common;
 
-use shellsim::run::{run, RunOutput, RunSpec};
+use common::{check_variant, config, run_variant, spec, Variant};
+use shellsim::run::run;
 use shellsim_hw::machine::TickOrder;
-use shellsim_hw::machine_config::{ArbiterPolicy, MachineConfig};
+use shellsim_hw::machine_config::ArbiterPolicy;
 use std::path::Path;
 
-fn config(base: &str) -> MachineConfig {
-    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("hw/configs")
-        .join(base);
-    shellsim::cli::machine_config(Some(&p)).unwrap()
-}
-
-#[derive(Clone, Copy, Debug)]
-struct Variant {
-    clusters: u32,
-    ctus: u32,
-    arbiter: ArbiterPolicy,
-    small_buffers: bool,
-    jump: bool,
-}
-
-impl Variant {
-    fn config(&self) -> MachineConfig {
-        let mut c = config(if self.small_buffers {
-            "small.toml"
-        } else {
-            "paper.toml"
-        });
-        c.machine.clusters = self.clusters;
-        c.machine.ctus_per_cluster = self.ctus;
-        c.machine.arbiter = self.arbiter;
-        c.machine.cycle_jump = self.jump;
-        c
-    }
-}
-
-fn simulate(file: &str, v: &Variant, order: TickOrder) -> RunOutput {
-    let scene = common::load(file);
-    let spec = RunSpec {
-        source: 0,
-        ratio: 1,
-        cell: 0.05,
-        order,
-    };
-    run(&scene, Path::new(file), &v.config(), &spec, None)
-        .unwrap_or_else(|e| panic!("{file} {v:?}: {e}"))
-}
-
-/// Equality with the untimed model and conservation, for one run.
-fn check(file: &str, v: &Variant) -> RunOutput {
-    let out = simulate(file, v, TickOrder::Forward);
-    let s = &out.stats;
-    let repro = format!(
-        "reproduce: shellsim run --scene scenes/{file} --ratio 1 with clusters={} ctus_per_cluster={} arbiter={:?} small={} cycle_jump={}",
-        v.clusters, v.ctus, v.arbiter, v.small_buffers, v.jump
-    );
-    assert_eq!(s.mismatches_vs_fixed, 0, "{repro}");
-    assert_eq!(out.hits, out.reference, "{repro}");
-    // Every ray has exactly one result slot: as many results as rays.
-    assert_eq!(out.hits.len(), s.rays, "{repro}");
-    // Jobs issued = jobs through the ICUs = results returned.
-    let icu_in: u64 = s.clusters.iter().map(|c| c.icu.jobs_in).sum();
-    let icu_out: u64 = s.clusters.iter().map(|c| c.icu.results_out).sum();
-    let results: u64 = s
-        .clusters
-        .iter()
-        .flat_map(|c| &c.ctus)
-        .map(|c| c.results)
-        .sum();
-    assert_eq!(
-        (icu_in, icu_out, results),
-        (s.jobs, s.jobs, s.jobs),
-        "{repro}"
-    );
-    // Memory grants = patch loads = requests; each CTU's cycles partition into states.
-    assert_eq!(s.memory.grants, s.patch_loads, "{repro}");
-    assert_eq!(s.memory_requests, s.patch_loads, "{repro}");
-    for c in s.clusters.iter().flat_map(|c| &c.ctus) {
-        assert_eq!(
-            c.busy_cycles + c.stalled_cycles + c.idle_cycles,
-            s.cycles,
-            "{repro}"
-        );
-    }
-    for c in &s.clusters {
-        assert_eq!(
-            c.icu.busy_cycles + c.icu.stalled_cycles + c.icu.idle_cycles,
-            s.cycles,
-            "{repro}"
-        );
-    }
-    out
-}
-
-/// Every combination of 1/2/4/8 clusters, 1/2/4 CTUs, both arbiters, small and large
-/// buffers, with and without the cycle jump.
-fn full_matrix() -> Vec<Variant> {
-    let mut v = Vec::new();
-    for clusters in [1, 2, 4, 8] {
-        for ctus in [1, 2, 4] {
-            for arbiter in [ArbiterPolicy::RoundRobin, ArbiterPolicy::FixedPriority] {
-                for small_buffers in [true, false] {
-                    for jump in [true, false] {
-                        v.push(Variant {
-                            clusters,
-                            ctus,
-                            arbiter,
-                            small_buffers,
-                            jump,
-                        });
-                    }
-                }
-            }
+/// One `#[test]` per cell of clusters 1/2/4/8 × CTUs 1/2/4 × both arbiters × small and
+/// paper buffers × cycle jump on and off, in nested modules named by the knobs.
+macro_rules! full_matrix {
+    ($($scene:ident => $file:literal),* $(,)?) => {$(
+        mod $scene {
+            use super::*;
+            full_matrix!(@c $file; c1 1, c2 2, c4 4, c8 8);
         }
-    }
-    v
-}
-
-/// A sample of the matrix that still takes every value of every knob.
-fn sampled_matrix() -> Vec<Variant> {
-    full_matrix().into_iter().step_by(7).collect()
-}
-
-#[test]
-fn scene1_full_matrix() {
-    for v in full_matrix() {
-        check("scene1.json", &v);
-    }
-}
-
-#[test]
-fn cornell_full_matrix() {
-    for v in full_matrix() {
-        check("cornell.json", &v);
-    }
-}
-
-#[test]
-fn sampled_matrix_takes_every_value() {
-    let m = sampled_matrix();
-    for c in [1, 2, 4, 8] {
-        assert!(m.iter().any(|v| v.clusters == c));
-    }
-    for k in [1, 2, 4] {
-        assert!(m.iter().any(|v| v.ctus == k));
-    }
-    assert!(m.iter().any(|v| v.jump) && m.iter().any(|v| !v.jump));
-    assert!(m.iter().any(|v| v.small_buffers) && m.iter().any(|v| !v.small_buffers));
-    assert!(m.iter().any(|v| v.arbiter == ArbiterPolicy::FixedPriority));
-}
-
-macro_rules! sampled {
-    ($($name:ident => $file:expr),* $(,)?) => {$(
+    )*};
+    (@c $file:literal; $($c:ident $cn:literal),*) => {$(
+        mod $c {
+            use super::*;
+            full_matrix!(@k $file, $cn; k1 1, k2 2, k4 4);
+        }
+    )*};
+    (@k $file:literal, $cn:literal; $($k:ident $kn:literal),*) => {$(
+        mod $k {
+            use super::*;
+            full_matrix!(@a $file, $cn, $kn; round_robin RoundRobin, fixed_priority FixedPriority);
+        }
+    )*};
+    (@a $file:literal, $cn:literal, $kn:literal; $($a:ident $an:ident),*) => {$(
+        mod $a {
+            use super::*;
+            full_matrix!(@b $file, $cn, $kn, $an; small true, paper false);
+        }
+    )*};
+    (@b $file:literal, $cn:literal, $kn:literal, $an:ident; $($b:ident $bn:literal),*) => {$(
+        mod $b {
+            use super::*;
+            full_matrix!(@j $file, $cn, $kn, $an, $bn; jump true, step false);
+        }
+    )*};
+    (@j $file:literal, $cn:literal, $kn:literal, $an:ident, $bn:literal; $($j:ident $jn:literal),*) => {$(
         #[test]
-        fn $name() {
-            for v in sampled_matrix() {
-                check($file, &v);
+        fn $j() {
+            check_variant($file, &Variant {
+                clusters: $cn,
+                ctus: $kn,
+                arbiter: ArbiterPolicy::$an,
+                small_buffers: $bn,
+                jump: $jn,
+                balance: None,
+            });
+        }
+    )*};
+}
+
+full_matrix! {
+    scene1 => "scene1.json",
+    cornell => "cornell.json",
+}
+
+/// One `#[test]` per listed cell, and the cells as `CELLS` for the coverage check.
+macro_rules! cells {
+    ($file:literal; $($name:ident => $cn:literal, $kn:literal, $an:ident, $bn:literal, $jn:literal;)*) => {
+        pub const CELLS: &[Variant] = &[$(Variant {
+            clusters: $cn,
+            ctus: $kn,
+            arbiter: ArbiterPolicy::$an,
+            small_buffers: $bn,
+            jump: $jn,
+            balance: None,
+        }),*];
+        $(
+            #[test]
+            fn $name() {
+                check_variant($file, &Variant {
+                    clusters: $cn,
+                    ctus: $kn,
+                    arbiter: ArbiterPolicy::$an,
+                    small_buffers: $bn,
+                    jump: $jn,
+                    balance: None,
+                });
+            }
+        )*
+    };
+}
+
+/// Every seventh cell of the full matrix: 14 cells that take every value of every knob.
+macro_rules! sampled_matrix {
+    ($($scene:ident => $file:literal),* $(,)?) => {$(
+        pub mod $scene {
+            use super::*;
+            cells! { $file;
+                c1_k1_round_robin_small_jump => 1, 1, RoundRobin, true, true;
+                c1_k1_fixed_priority_paper_step => 1, 1, FixedPriority, false, false;
+                c1_k2_fixed_priority_paper_jump => 1, 2, FixedPriority, false, true;
+                c1_k4_fixed_priority_small_step => 1, 4, FixedPriority, true, false;
+                c2_k1_fixed_priority_small_jump => 2, 1, FixedPriority, true, true;
+                c2_k2_round_robin_paper_step => 2, 2, RoundRobin, false, false;
+                c2_k4_round_robin_paper_jump => 2, 4, RoundRobin, false, true;
+                c4_k1_round_robin_small_step => 4, 1, RoundRobin, true, false;
+                c4_k2_round_robin_small_jump => 4, 2, RoundRobin, true, true;
+                c4_k2_fixed_priority_paper_step => 4, 2, FixedPriority, false, false;
+                c4_k4_fixed_priority_paper_jump => 4, 4, FixedPriority, false, true;
+                c8_k1_fixed_priority_small_step => 8, 1, FixedPriority, true, false;
+                c8_k2_fixed_priority_small_jump => 8, 2, FixedPriority, true, true;
+                c8_k4_round_robin_paper_step => 8, 4, RoundRobin, false, false;
             }
         }
     )*};
 }
 
-sampled! {
-    scene2_sampled => "scene2.json",
-    stress_edges_sampled => "stress-edges.json",
-    stress_grazing_sampled => "stress-grazing.json",
-    stress_skewed_sampled => "stress-skewed.json",
+sampled_matrix! {
+    scene2 => "scene2.json",
+    stress_edges => "stress-edges.json",
+    stress_grazing => "stress-grazing.json",
+    stress_skewed => "stress-skewed.json",
 }
 
 #[test]
-fn stress_dense_two_machines() {
-    for v in [
-        Variant {
-            clusters: 4,
-            ctus: 2,
-            arbiter: ArbiterPolicy::RoundRobin,
-            small_buffers: false,
-            jump: true,
-        },
-        Variant {
+fn sampled_matrix_takes_every_value() {
+    let m = scene2::CELLS;
+    for c in [1, 2, 4, 8] {
+        assert!(m.iter().any(|v| v.clusters == c), "clusters {c}");
+    }
+    for k in [1, 2, 4] {
+        assert!(m.iter().any(|v| v.ctus == k), "ctus {k}");
+    }
+    assert!(m.iter().any(|v| v.jump) && m.iter().any(|v| !v.jump));
+    assert!(m.iter().any(|v| v.small_buffers) && m.iter().any(|v| !v.small_buffers));
+    for a in [ArbiterPolicy::RoundRobin, ArbiterPolicy::FixedPriority] {
+        assert!(m.iter().any(|v| v.arbiter == a), "{a:?}");
+    }
+    // Every sampled scene runs the same cells.
+    for other in [
+        stress_edges::CELLS,
+        stress_grazing::CELLS,
+        stress_skewed::CELLS,
+    ] {
+        assert_eq!(other, m);
+    }
+}
+
+mod stress_dense {
+    use super::*;
+
+    #[test]
+    fn c4_k2_round_robin_paper_jump() {
+        check_variant("stress-dense.json", &Variant::PAPER);
+    }
+
+    #[test]
+    fn c2_k1_fixed_priority_small_step() {
+        let v = Variant {
             clusters: 2,
             ctus: 1,
             arbiter: ArbiterPolicy::FixedPriority,
             small_buffers: true,
             jump: false,
-        },
-    ] {
-        check("stress-dense.json", &v);
+            balance: None,
+        };
+        check_variant("stress-dense.json", &v);
     }
 }
 
-#[test]
-fn the_cycle_jump_changes_no_statistic() {
-    for file in ["scene1.json", "cornell.json"] {
-        // Slow DDA steps and a slow memory leave whole stretches where all units wait.
-        let run_with = |jump: bool| {
-            let mut c = config("paper.toml");
-            c.machine.dda_cycles_per_step = 20;
-            c.machine.memory_latency = 60;
-            c.machine.cycle_jump = jump;
-            let scene = common::load(file);
-            let spec = RunSpec {
-                source: 0,
-                ratio: 1,
-                cell: 0.05,
-                order: TickOrder::Forward,
-            };
-            run(&scene, Path::new(file), &c, &spec, None).unwrap()
-        };
-        let (a, b) = (run_with(true), run_with(false));
+/// Slow DDA steps and a slow memory leave whole stretches where all units wait: the jump
+/// skips them and changes no statistic.
+fn the_cycle_jump_changes_no_statistic(file: &str) {
+    let run_with = |jump: bool| {
+        let mut c = config("paper");
+        c.machine.dda_cycles_per_step = 20;
+        c.machine.memory_latency = 60;
+        c.machine.cycle_jump = jump;
+        let scene = common::load(file);
+        run(&scene, Path::new(file), &c, &spec(), None).unwrap()
+    };
+    let (a, b) = (run_with(true), run_with(false));
+    assert!(
+        a.stats.skipped_cycles > a.stats.cycles / 10,
+        "{file}: the jump skipped only {} of {}",
+        a.stats.skipped_cycles,
+        a.stats.cycles
+    );
+    assert_eq!(b.stats.skipped_cycles, 0);
+    assert_eq!(
+        serde_json::to_string(&a.stats).unwrap(),
+        serde_json::to_string(&b.stats).unwrap(),
+        "{file}"
+    );
+    assert_eq!(a.hits, b.hits);
+}
+
+mod cycle_jump {
+    use super::*;
+    testcases! { the_cycle_jump_changes_no_statistic;
+        scene1 => "scene1.json";
+        cornell => "cornell.json";
+    }
+}
+
+/// Ticking the units in another order changes no statistic and no hit. With balancing on,
+/// the run must move work-items between clusters, so the balancer's links are exercised.
+fn tick_order_changes_nothing(file: &str, balance: bool, order: TickOrder) {
+    let v = Variant {
+        clusters: if balance { 4 } else { 2 },
+        ctus: 2,
+        arbiter: ArbiterPolicy::RoundRobin,
+        small_buffers: !balance,
+        jump: false,
+        balance: Some(balance),
+    };
+    let fwd = run_variant(file, &v, TickOrder::Forward);
+    if balance {
         assert!(
-            a.stats.skipped_cycles > a.stats.cycles / 10,
-            "{file}: the jump skipped only {} of {}",
-            a.stats.skipped_cycles,
-            a.stats.cycles
+            fwd.stats.balancer.work_items > 0,
+            "{file}: no work-item moved, the balancer is not exercised"
         );
-        assert_eq!(b.stats.skipped_cycles, 0);
-        assert_eq!(
-            serde_json::to_string(&a.stats).unwrap(),
-            serde_json::to_string(&b.stats).unwrap(),
-            "{file}"
-        );
-        assert_eq!(a.hits, b.hits);
     }
+    let other = run_variant(file, &v, order);
+    assert_eq!(
+        serde_json::to_string(&other.stats).unwrap(),
+        serde_json::to_string(&fwd.stats).unwrap(),
+        "{file} {order:?} balance {balance}"
+    );
+    assert_eq!(other.hits, fwd.hits);
 }
 
-#[test]
-fn tick_order_changes_nothing() {
-    for file in ["scene1.json", "cornell.json"] {
-        let v = Variant {
-            clusters: 2,
-            ctus: 2,
-            arbiter: ArbiterPolicy::RoundRobin,
-            small_buffers: true,
-            jump: false,
-        };
-        let fwd = simulate(file, &v, TickOrder::Forward);
-        let json = serde_json::to_string(&fwd.stats).unwrap();
-        for order in [
-            TickOrder::Reverse,
-            TickOrder::Shuffled(1),
-            TickOrder::Shuffled(99),
-        ] {
-            let other = simulate(file, &v, order);
-            assert_eq!(
-                serde_json::to_string(&other.stats).unwrap(),
-                json,
-                "{file} {order:?}"
-            );
-            assert_eq!(other.hits, fwd.hits);
-        }
+mod tick_order {
+    use super::*;
+    testcases! { tick_order_changes_nothing;
+        scene1_reverse => "scene1.json", false, TickOrder::Reverse;
+        scene1_shuffled_1 => "scene1.json", false, TickOrder::Shuffled(1);
+        scene1_shuffled_99 => "scene1.json", false, TickOrder::Shuffled(99);
+        cornell_reverse => "cornell.json", false, TickOrder::Reverse;
+        cornell_shuffled_1 => "cornell.json", false, TickOrder::Shuffled(1);
+        cornell_shuffled_99 => "cornell.json", false, TickOrder::Shuffled(99);
+        balanced_scene1_reverse => "scene1.json", true, TickOrder::Reverse;
+        balanced_scene1_shuffled_7 => "scene1.json", true, TickOrder::Shuffled(7);
+        balanced_scene2_reverse => "scene2.json", true, TickOrder::Reverse;
+        balanced_scene2_shuffled_3 => "scene2.json", true, TickOrder::Shuffled(3);
+        balanced_stress_skewed_shuffled_5 => "stress-skewed.json", true, TickOrder::Shuffled(5);
     }
 }
 
 #[test]
 fn two_runs_give_identical_json() {
-    let v = Variant {
-        clusters: 4,
-        ctus: 2,
-        arbiter: ArbiterPolicy::RoundRobin,
-        small_buffers: false,
-        jump: true,
-    };
-    let a = simulate("scene2.json", &v, TickOrder::Forward);
-    let b = simulate("scene2.json", &v, TickOrder::Forward);
+    let a = run_variant("scene2.json", &Variant::PAPER, TickOrder::Forward);
+    let b = run_variant("scene2.json", &Variant::PAPER, TickOrder::Forward);
     assert_eq!(
         serde_json::to_string(&a.stats).unwrap(),
         serde_json::to_string(&b.stats).unwrap()
@@ -278,17 +262,12 @@ fn two_runs_give_identical_json() {
 #[test]
 fn the_watchdog_stops_a_run_that_makes_no_progress() {
     // A DDA step longer than the watchdog's patience: nothing moves for 1000 cycles.
-    let mut c = config("small.toml");
+    let mut c = config("small");
     c.machine.dda_cycles_per_step = 1000;
     c.machine.watchdog_cycles = 100;
     c.machine.cycle_jump = false;
     let scene = common::load("scene1.json");
-    let spec = RunSpec {
-        source: 0,
-        ratio: 1,
-        cell: 0.05,
-        order: TickOrder::Forward,
-    };
+    let spec = spec();
     let err = match run(&scene, Path::new("scene1.json"), &c, &spec, None) {
         Err(e) => e.to_string(),
         Ok(_) => panic!("the run finished"),
@@ -342,16 +321,11 @@ impl shellsim_hw::trace::Probe for ChangeLog {
 #[test]
 fn waveforms_are_the_same_with_and_without_the_cycle_jump() {
     // Every signal changes at the same cycle to the same value, balancing on, slow timers.
-    let mut c = config("paper.toml");
+    let mut c = config("paper");
     c.machine.dda_cycles_per_step = 20;
     c.machine.memory_latency = 60;
     let scene = common::load("scene1.json");
-    let spec = RunSpec {
-        source: 0,
-        ratio: 1,
-        cell: 0.05,
-        order: TickOrder::Forward,
-    };
+    let spec = spec();
     let logs: Vec<Vec<String>> = [true, false]
         .into_iter()
         .map(|jump| {

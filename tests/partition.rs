@@ -127,27 +127,34 @@ fn cfg(source: usize, sections: usize, ctus: usize, ratio: usize, g: Granularity
     c
 }
 
-#[test]
-fn schedule_finds_the_tracers_nearest_hit_for_every_ray_of_scene1_and_scene2() {
-    for name in ["scene1.json", "scene2.json"] {
-        let scene = common::load(name);
-        for (g, max) in [(Granularity::Subregion, 64), (Granularity::Ray, 4)] {
-            let mut c = cfg(0, 4, 4, 30, g);
-            c.subshell_max = max;
-            let p = run(&scene, &c);
-            if max == 4 {
-                let split = p
-                    .sectors
-                    .iter()
-                    .any(|s| s.run.subshells.iter().any(|x| x.part > 0));
-                assert!(
-                    split,
-                    "{name}: a small threshold cuts some shell into subshells"
-                );
-            }
-            assert_hits_equal_tracer(&scene, &p, &format!("{name} {g:?} subshell max {max}"));
-            assert_invariants(&p, name);
-        }
+/// Every ray of a scene at ratio 30 (29,070 rays), 4 sections × 4 CTUs: the schedule's
+/// nearest hit equals the float tracer's; a small subshell threshold must cut some shell.
+fn schedule_finds_the_tracers_nearest_hit(name: &str, g: Granularity, max: usize) {
+    let scene = common::load(name);
+    let mut c = cfg(0, 4, 4, 30, g);
+    c.subshell_max = max;
+    let p = run(&scene, &c);
+    if max == 4 {
+        let split = p
+            .sectors
+            .iter()
+            .any(|s| s.run.subshells.iter().any(|x| x.part > 0));
+        assert!(
+            split,
+            "{name}: a small threshold cuts some shell into subshells"
+        );
+    }
+    assert_hits_equal_tracer(&scene, &p, &format!("{name} {g:?} subshell max {max}"));
+    assert_invariants(&p, name);
+}
+
+mod schedule_nearest_hit {
+    use super::*;
+    testcases! { schedule_finds_the_tracers_nearest_hit;
+        scene1_subregion_64 => "scene1.json", Granularity::Subregion, 64;
+        scene1_ray_4 => "scene1.json", Granularity::Ray, 4;
+        scene2_subregion_64 => "scene2.json", Granularity::Subregion, 64;
+        scene2_ray_4 => "scene2.json", Granularity::Ray, 4;
     }
 }
 
@@ -161,17 +168,24 @@ fn every_source_of_scene1() {
     }
 }
 
-#[test]
-fn shelling_loads_fewer_patches_than_ray_by_ray_on_scene2() {
+/// Shelling loads under a quarter of the ray-by-ray baseline's patches on scene2.
+fn shelling_loads_fewer_patches_than_ray_by_ray_on_scene2(ratio: usize) {
     let scene = common::load("scene2.json");
-    for ratio in [1, 10, 30] {
-        let p = run(&scene, &cfg(0, 4, 4, ratio, Granularity::Subregion));
-        let (shell, base) = (p.patch_loads(), p.patch_loads_baseline);
-        eprintln!(
-            "scene2 ratio {ratio}: {shell} loads with shelling, {base} ray by ray ({:.4})",
-            shell as f64 / base as f64
-        );
-        assert!(shell * 4 < base, "ratio {ratio}: {shell} vs {base}");
+    let p = run(&scene, &cfg(0, 4, 4, ratio, Granularity::Subregion));
+    let (shell, base) = (p.patch_loads(), p.patch_loads_baseline);
+    eprintln!(
+        "scene2 ratio {ratio}: {shell} loads with shelling, {base} ray by ray ({:.4})",
+        shell as f64 / base as f64
+    );
+    assert!(shell * 4 < base, "ratio {ratio}: {shell} vs {base}");
+}
+
+mod shelling_loads {
+    use super::*;
+    testcases! { shelling_loads_fewer_patches_than_ray_by_ray_on_scene2;
+        ratio_1 => 1;
+        ratio_10 => 10;
+        ratio_30 => 30;
     }
 }
 

@@ -224,8 +224,7 @@ fn read(path: &Path) -> Wave {
 
 /// The committed small machine.
 fn small() -> MachineConfig {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("hw/configs/small.toml");
-    shellsim::cli::machine_config(Some(&p)).unwrap()
+    common::config("small")
 }
 
 /// One waveform of scene1 on small.toml, ratio 1, with `opts`; returns the statistics, the
