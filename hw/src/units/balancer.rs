@@ -12,8 +12,8 @@
 //! its shell as usual. A request that finds no work is retried after `sampling_interval`.
 //! Every job is computed exactly once: a split removes jobs from the victim's queue.
 
+use crate::config::{BalanceTable, VictimPolicy};
 use crate::link::Link;
-use crate::machine_config::{BalanceTable, VictimPolicy};
 use crate::msg::{Job, JobResult, RemoteResult, SplitOrder, WorkItem, JOB_WORDS};
 use std::collections::VecDeque;
 

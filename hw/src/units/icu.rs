@@ -5,10 +5,10 @@
 //! leave (its CTU's result link is full): back-pressure, never a lost result.
 
 use crate::config::Formats;
+use crate::datapath::record::{PatchRecord, RayRecord};
 use crate::datapath::{self, Edges, Exceptions, Interpolated, RaySpace, Translated};
 use crate::link::Link;
 use crate::msg::{Job, JobResult, RemoteResult};
-use crate::record::{PatchRecord, RayRecord};
 
 /// What a stage register holds besides the job.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

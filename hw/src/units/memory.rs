@@ -9,8 +9,8 @@
 //! Records wait in one delivery queue per cluster: a full patch buffer holds back only its
 //! own cluster's records, never another cluster's.
 
+use crate::config::ArbiterPolicy;
 use crate::link::Link;
-use crate::machine_config::ArbiterPolicy;
 use crate::msg::{MemRequest, PatchArrival};
 use std::collections::VecDeque;
 

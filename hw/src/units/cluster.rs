@@ -1,12 +1,12 @@
 //! A cluster: one ICU, K CTUs, a ray buffer and a patch buffer, with the links between them
 //! (one per section of the partition).
 
-use crate::ctu::Ctu;
-use crate::icu::Icu;
 use crate::link::Link;
 use crate::msg::{Job, JobResult, PatchArrival};
-use crate::patch_buffer::PatchBuffer;
-use crate::ray_buffer::RayBuffer;
+use crate::units::ctu::Ctu;
+use crate::units::icu::Icu;
+use crate::units::patch_buffer::PatchBuffer;
+use crate::units::ray_buffer::RayBuffer;
 
 /// One cluster.
 #[derive(Clone, Debug)]

@@ -10,19 +10,19 @@
 //! accounts the skipped cycles as it would have spent them. Results and waveforms are the
 //! same with or without it.
 
-use crate::balancer::{Balancer, BalancerPorts};
-use crate::cluster::Cluster;
-use crate::ctu::{Ctu, CtuParams};
+use crate::config::MachineConfig;
+use crate::datapath::model::FixedScene;
+use crate::datapath::record::{RayRecord, RecordSizes};
 use crate::datapath::{Exceptions, FixedHit};
-use crate::icu::Icu;
 use crate::link::Link;
-use crate::machine_config::MachineConfig;
-use crate::memory::Memory;
-use crate::model::FixedScene;
 use crate::msg::{Job, JobResult, MemRequest, PatchArrival, RemoteResult, SplitOrder, WorkItem};
-use crate::ray_buffer::RayBuffer;
-use crate::record::{RayRecord, RecordSizes};
 use crate::trace::Probe;
+use crate::units::balancer::{Balancer, BalancerPorts};
+use crate::units::cluster::Cluster;
+use crate::units::ctu::{Ctu, CtuParams};
+use crate::units::icu::Icu;
+use crate::units::memory::Memory;
+use crate::units::ray_buffer::RayBuffer;
 
 /// The order units are ticked in within a cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -115,10 +115,10 @@ impl<'a> Machine<'a> {
             cfg.machine.clusters as usize,
             "one section per cluster"
         );
-        let shell_raw =
-            f.t.quantize(cfg.machine.shell_radius)
-                .unwrap_or(f.t.max_raw() as i64)
-                .max(1);
+        // Quantized once by the configuration; a radius that does not fit is a config error.
+        let shell_raw = cfg
+            .shell_raw()
+            .unwrap_or_else(|e| panic!("an unvalidated machine configuration: {e}"));
         let clusters: Vec<Cluster> = sectors
             .iter()
             .enumerate()
@@ -251,7 +251,7 @@ impl<'a> Machine<'a> {
                 }
                 Unit::Ctu(c, j) => {
                     let cl = &mut self.clusters[c];
-                    let mut io = crate::ctu::CtuPorts {
+                    let mut io = crate::units::ctu::CtuPorts {
                         requests: &mut self.requests[c * k + j],
                         arrivals: &mut cl.arrival_links[j],
                         jobs: &mut cl.job_links[j],
@@ -272,7 +272,7 @@ impl<'a> Machine<'a> {
                 }
                 Unit::Icu(c) => {
                     let cl = &mut self.clusters[c];
-                    let mut io = crate::icu::IcuPorts {
+                    let mut io = crate::units::icu::IcuPorts {
                         cluster: c as u16,
                         input: &mut cl.ray_buffer.queue,
                         results: &mut cl.result_links,
@@ -560,7 +560,7 @@ impl<'a> Machine<'a> {
                 p.bits(ss, "ray", 32, st.map_or(0, |r| r.job.ray as u64));
                 p.bits(ss, "patch", 24, st.map_or(0, |r| r.job.patch as u64));
                 let t = match st.map(|r| r.value) {
-                    Some(crate::icu::StageValue::Result(Some(t))) => t,
+                    Some(crate::units::icu::StageValue::Result(Some(t))) => t,
                     _ => 0,
                 };
                 p.fixed(ss, "t", t_bits, t_frac, t);

@@ -22,12 +22,12 @@
 //!   retires rays, and goes on with the shell (subshell join) or to the next one.
 //! - `Done`: no ray remains.
 
+use crate::datapath::dda::FixedDda;
+use crate::datapath::model::STOP_SLACK_T_LSB;
+use crate::datapath::record::{CellTable, RayRecord};
 use crate::datapath::{compare, FixedHit};
-use crate::dda::FixedDda;
 use crate::link::Link;
-use crate::model::STOP_SLACK_T_LSB;
 use crate::msg::{Job, JobResult, MemRequest, PatchArrival};
-use crate::record::{CellTable, RayRecord};
 use bitvec::prelude::*;
 
 /// The traversal FSM's states.
