@@ -13,9 +13,12 @@
 //! Every job is computed exactly once: a split removes jobs from the victim's queue.
 
 use crate::config::{BalanceTable, VictimPolicy};
-use crate::link::Link;
+use crate::link::{Link, UnitId};
 use crate::msg::{Job, JobResult, RemoteResult, SplitOrder, WorkItem, JOB_WORDS};
 use std::collections::VecDeque;
+
+/// The balancer's end of its links (rule 7).
+const ME: UnitId = UnitId::Balancer;
 
 /// A cluster's work request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,8 +64,9 @@ pub struct BalancerPorts<'a> {
     pub items: &'a mut [Link<WorkItem>],
     pub to_ray_buffers: &'a mut [Link<Job>],
     pub from_icus: &'a mut [Link<RemoteResult>],
-    /// Per cluster, per CTU.
-    pub to_ctus: &'a mut [Vec<Link<JobResult>>],
+    /// Per CTU, cluster-major: CTU j of cluster c is `c * ctus_per_cluster + j`.
+    pub to_ctus: &'a mut [Link<JobResult>],
+    pub ctus_per_cluster: usize,
 }
 
 impl Balancer {
@@ -152,7 +156,7 @@ impl Balancer {
         // Work-items from victims go onto the link (or, empty, send their thief to wait).
         for c in 0..n {
             if io.items[c].peek().is_some() {
-                let item = io.items[c].pop();
+                let item = io.items[c].pop(ME);
                 let thief = item.to as usize;
                 if item.jobs.is_empty() {
                     self.requests[thief] = Some(Request {
@@ -176,7 +180,7 @@ impl Balancer {
         for c in 0..n {
             if let Some(&(at, job)) = self.inbound[c].front() {
                 if at <= now && io.to_ray_buffers[c].can_push() {
-                    io.to_ray_buffers[c].push(job);
+                    io.to_ray_buffers[c].push(ME, job);
                     self.inbound[c].pop_front();
                 }
             }
@@ -184,7 +188,7 @@ impl Balancer {
         // Results of moved jobs go home.
         for c in 0..n {
             if io.from_icus[c].peek().is_some() {
-                let r = io.from_icus[c].pop();
+                let r = io.from_icus[c].pop(ME);
                 let at = now + self.link_cycles(JOB_WORDS as u64);
                 self.returns[r.owner as usize].push_back((at, r));
                 self.stats.link_words += JOB_WORDS as u64;
@@ -192,9 +196,9 @@ impl Balancer {
         }
         for c in 0..n {
             if let Some(&(at, r)) = self.returns[c].front() {
-                let port = &mut io.to_ctus[c][r.ctu as usize];
+                let port = &mut io.to_ctus[c * io.ctus_per_cluster + r.ctu as usize];
                 if at <= now && port.can_push() {
-                    port.push(r.result);
+                    port.push(ME, r.result);
                     self.returns[c].pop_front();
                     self.stats.results_returned += 1;
                 }
@@ -218,10 +222,13 @@ impl Balancer {
             }
             match self.victim(c, io) {
                 Some(v) => {
-                    io.orders[v].push(SplitOrder {
-                        thief: c as u16,
-                        jobs: self.cfg.work_item_jobs,
-                    });
+                    io.orders[v].push(
+                        ME,
+                        SplitOrder {
+                            thief: c as u16,
+                            jobs: self.cfg.work_item_jobs,
+                        },
+                    );
                     self.requests[c] = Some(Request { ordered: true, ..r });
                     self.stats.split_orders += 1;
                 }

@@ -1,10 +1,12 @@
-//! A cluster: one ICU, K CTUs, a ray buffer and a patch buffer, with the links between them
-//! (one per section of the partition).
+//! A cluster: one ICU, K CTUs, a ray buffer and a patch buffer (one per section of the
+//! partition). The links between them are the machine's (`machine::links`); the buffers'
+//! stores are the buffers' own.
 
 use crate::link::Link;
-use crate::msg::{Job, JobResult, PatchArrival};
+use crate::msg::PatchArrival;
 use crate::units::ctu::Ctu;
 use crate::units::icu::Icu;
+use crate::units::memory::Stores;
 use crate::units::patch_buffer::PatchBuffer;
 use crate::units::ray_buffer::RayBuffer;
 
@@ -15,55 +17,42 @@ pub struct Cluster {
     pub icu: Icu,
     pub ray_buffer: RayBuffer,
     pub patch_buffer: PatchBuffer,
-    /// CTU k → ray buffer.
-    pub job_links: Vec<Link<Job>>,
-    /// ICU → CTU k.
-    pub result_links: Vec<Link<JobResult>>,
-    /// Patch buffer → CTU k.
-    pub arrival_links: Vec<Link<PatchArrival>>,
 }
 
 impl Cluster {
-    /// A cluster of the given CTUs; every inner link is a skid buffer (capacity 2).
-    pub fn new(ctus: Vec<Ctu>, icu: Icu, ray_buffer: RayBuffer) -> Self {
-        let k = ctus.len();
+    /// A cluster of the given units.
+    pub fn new(ctus: Vec<Ctu>, icu: Icu, ray_buffer: RayBuffer, patch_buffer: PatchBuffer) -> Self {
         Cluster {
             ctus,
             icu,
             ray_buffer,
-            patch_buffer: PatchBuffer::default(),
-            job_links: (0..k).map(|_| Link::new(2)).collect(),
-            result_links: (0..k).map(|_| Link::new(2)).collect(),
-            arrival_links: (0..k).map(|_| Link::new(2)).collect(),
+            patch_buffer,
         }
     }
 
-    /// True when the cluster has finished and holds nothing.
+    /// True when the cluster has finished and holds nothing (its links aside).
     pub fn drained(&self) -> bool {
-        self.ctus.iter().all(Ctu::done)
-            && self.icu.is_empty()
+        self.ctus.iter().all(Ctu::done) && self.is_empty()
+    }
+
+    /// True when the ICU and both buffers' stores are empty.
+    pub fn is_empty(&self) -> bool {
+        self.icu.is_empty()
             && self.ray_buffer.queue.is_empty()
-            && self.links_empty()
+            && self.patch_buffer.store.is_empty()
     }
 
-    /// True when every inner link is empty.
-    pub fn links_empty(&self) -> bool {
-        self.job_links.iter().all(Link::is_empty)
-            && self.result_links.iter().all(Link::is_empty)
-            && self.arrival_links.iter().all(Link::is_empty)
-    }
-
-    /// Commits every link of the cluster (the clock edge).
+    /// The clock edge of the units' own stores (the ray buffer's queue, the patch buffer's
+    /// store); the links commit in `machine::links`.
     pub fn commit(&mut self) {
         self.ray_buffer.queue.commit();
-        for l in &mut self.job_links {
-            l.commit();
-        }
-        for l in &mut self.result_links {
-            l.commit();
-        }
-        for l in &mut self.arrival_links {
-            l.commit();
-        }
+        self.patch_buffer.commit();
+    }
+}
+
+/// The memory reaches each cluster's patch-buffer store, and nothing else of the cluster.
+impl Stores for [Cluster] {
+    fn store(&mut self, cluster: usize) -> &mut Link<PatchArrival> {
+        &mut self[cluster].patch_buffer.store
     }
 }

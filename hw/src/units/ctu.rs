@@ -26,7 +26,7 @@ use crate::datapath::dda::FixedDda;
 use crate::datapath::model::STOP_SLACK_T_LSB;
 use crate::datapath::record::{CellTable, RayRecord};
 use crate::datapath::{compare, FixedHit};
-use crate::link::Link;
+use crate::link::{Link, UnitId};
 use crate::msg::{Job, JobResult, MemRequest, PatchArrival};
 use bitvec::prelude::*;
 
@@ -235,13 +235,14 @@ impl Ctu {
 
     /// One clock cycle.
     pub fn tick(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
+        let me = UnitId::Ctu(self.p.cluster as usize, self.p.local as usize);
         let mut busy = false;
         let mut stalled = false;
         // Result ports: one local and one remote result per cycle, each through a compare
         // stage of the datapath (two results for one ray apply in port order).
         for port in [&mut *io.results, &mut *io.remote_results] {
             if port.peek().is_some() {
-                let r = port.pop();
+                let r = port.pop(me);
                 let slot = &mut self.slots[r.slot as usize];
                 if let Some(t) = r.t {
                     compare(&mut slot.best, FixedHit { patch: r.patch, t });
@@ -256,13 +257,16 @@ impl Ctu {
             Some((patch, i)) => {
                 if io.jobs.can_push() {
                     let slot = self.remaining[i];
-                    io.jobs.push(Job {
-                        ray: self.slots[slot as usize].ray,
-                        slot,
-                        patch,
-                        ctu: self.p.local,
-                        owner: self.p.cluster,
-                    });
+                    io.jobs.push(
+                        me,
+                        Job {
+                            ray: self.slots[slot as usize].ray,
+                            slot,
+                            patch,
+                            ctu: self.p.local,
+                            owner: self.p.cluster,
+                        },
+                    );
                     self.outstanding += 1;
                     self.stats.jobs_issued += 1;
                     self.issuing = (i + 1 < self.remaining.len()).then_some((patch, i + 1));
@@ -273,7 +277,7 @@ impl Ctu {
             }
             None => {
                 if io.arrivals.peek().is_some() {
-                    let a = io.arrivals.pop();
+                    let a = io.arrivals.pop(me);
                     self.pending_loads -= 1;
                     if !self.remaining.is_empty() {
                         self.issuing = Some((a.patch, 0));
@@ -313,12 +317,15 @@ impl Ctu {
                         self.state = CtuState::Scan;
                         busy = true;
                     } else if io.requests.can_push() {
-                        io.requests.push(MemRequest {
-                            patch: id,
-                            cluster: self.p.cluster,
-                            ctu: self.p.local,
-                            issued: now,
-                        });
+                        io.requests.push(
+                            me,
+                            MemRequest {
+                                patch: id,
+                                cluster: self.p.cluster,
+                                ctu: self.p.local,
+                                issued: now,
+                            },
+                        );
                         self.loaded.set(id as usize, true);
                         self.pending_loads += 1;
                         self.subshell_loads += 1;

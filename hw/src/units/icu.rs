@@ -7,7 +7,7 @@
 use crate::config::Formats;
 use crate::datapath::record::{PatchRecord, RayRecord};
 use crate::datapath::{self, Edges, Exceptions, Interpolated, RaySpace, Translated};
-use crate::link::Link;
+use crate::link::{Link, UnitId};
 use crate::msg::{Job, JobResult, RemoteResult};
 
 /// What a stage register holds besides the job.
@@ -162,6 +162,7 @@ impl Icu {
             remote,
         } = io;
         let cluster = *cluster;
+        let me = UnitId::Icu(cluster as usize);
         let n = self.slots.len();
         self.stats.stage_cycles += n as u64;
         if self.count == 0 && input.peek().is_none() {
@@ -190,13 +191,16 @@ impl Icu {
                 t,
             };
             if local {
-                results[reg.job.ctu as usize].push(r);
+                results[reg.job.ctu as usize].push(me, r);
             } else {
-                remote.push(RemoteResult {
-                    owner: reg.job.owner,
-                    ctu: reg.job.ctu,
-                    result: r,
-                });
+                remote.push(
+                    me,
+                    RemoteResult {
+                        owner: reg.job.owner,
+                        ctu: reg.job.ctu,
+                        result: r,
+                    },
+                );
                 self.stats.remote_results_out += 1;
             }
             self.stats.results_out += 1;
@@ -225,7 +229,7 @@ impl Icu {
         }
         self.base = last;
         if input.peek().is_some() {
-            let job = input.pop();
+            let job = input.pop(me);
             let t = datapath::translate(
                 &rays[job.ray as usize],
                 &patches[job.patch as usize],

@@ -10,9 +10,21 @@
 //! own cluster's records, never another cluster's.
 
 use crate::config::ArbiterPolicy;
-use crate::link::Link;
+use crate::link::{Link, UnitId};
 use crate::msg::{MemRequest, PatchArrival};
 use std::collections::VecDeque;
+
+/// The memory's write ports: each cluster's patch-buffer store (the buffer owns it).
+pub trait Stores {
+    /// Cluster `cluster`'s store.
+    fn store(&mut self, cluster: usize) -> &mut Link<PatchArrival>;
+}
+
+impl Stores for [Link<PatchArrival>] {
+    fn store(&mut self, cluster: usize) -> &mut Link<PatchArrival> {
+        &mut self[cluster]
+    }
+}
 
 /// Memory and arbiter counters.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -116,7 +128,7 @@ impl Memory {
         &mut self,
         now: u64,
         requests: &mut [Link<MemRequest>],
-        buffers: &mut [Link<PatchArrival>],
+        buffers: &mut (impl Stores + ?Sized),
     ) {
         if now < self.port_free_at {
             self.stats.busy_cycles += 1;
@@ -126,9 +138,9 @@ impl Memory {
         for (c, q) in self.inflight.iter_mut().enumerate() {
             if let Some(f) = q.front() {
                 if f.ready <= now {
-                    let b = &mut buffers[c];
+                    let b = buffers.store(c);
                     if b.can_push() {
-                        b.push(f.arrival);
+                        b.push(UnitId::Memory, f.arrival);
                         q.pop_front();
                     } else {
                         stalled = true;
@@ -148,7 +160,7 @@ impl Memory {
         for k in 0..n {
             let i = (start + k) % n;
             if requests[i].peek().is_some() {
-                let r = requests[i].pop();
+                let r = requests[i].pop(UnitId::Memory);
                 self.stats.grants += 1;
                 self.stats.wait_cycles += now - r.issued;
                 self.stats.words += self.words;

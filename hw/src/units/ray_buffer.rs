@@ -4,7 +4,7 @@
 //! input is favoured when room runs short. Told to by the balancer, it splits a work-item off
 //! the back of its queue for a starving cluster.
 
-use crate::link::Link;
+use crate::link::{Link, UnitId};
 use crate::msg::{Job, SplitOrder, WorkItem};
 
 /// Ray-buffer counters.
@@ -49,25 +49,29 @@ impl RayBuffer {
         orders: &mut Link<SplitOrder>,
         out: &mut Link<WorkItem>,
     ) {
+        let me = UnitId::RayBuffer(cluster as usize);
         let occ = self.queue.len() as u64;
         self.stats.occupancy_sum += occ;
         self.stats.max_occupancy = self.stats.max_occupancy.max(occ);
         if orders.peek().is_some() && out.can_push() {
-            let o = orders.pop();
+            let o = orders.pop(me);
             let k = (o.jobs as usize).min(self.queue.len().saturating_sub(1));
             // Always answer: an empty work-item tells the balancer there was nothing to give.
             let jobs = if k > 0 {
-                self.queue.take_back(k)
+                self.queue.take_back(me, k)
             } else {
                 Vec::new()
             };
             self.stats.work_items_given += (k > 0) as u64;
             self.stats.jobs_given += k as u64;
-            out.push(WorkItem {
-                from: cluster,
-                to: o.thief,
-                jobs,
-            });
+            out.push(
+                me,
+                WorkItem {
+                    from: cluster,
+                    to: o.thief,
+                    jobs,
+                },
+            );
         }
         // Inputs 0..K are the CTUs, K the network.
         let n = inputs.len() + 1;
@@ -85,8 +89,8 @@ impl RayBuffer {
                 &mut *from_network
             };
             if link.peek().is_some() {
-                let job = link.pop();
-                self.queue.push(job);
+                let job = link.pop(me);
+                self.queue.push(me, job);
                 self.stats.jobs_in += 1;
                 self.next = (i + 1) % n;
             }
