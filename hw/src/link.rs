@@ -287,6 +287,7 @@ mod tests {
     fn a_second_consumer_panics() {
         let mut l: Link<u8> = Link::new(4).wired(P, C);
         l.push(P, 1);
+        l.commit();
         l.push(P, 2);
         l.commit();
         l.pop(C);

@@ -262,3 +262,168 @@ impl Balancer {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(victim: VictimPolicy) -> BalanceTable {
+        BalanceTable {
+            enabled: true,
+            work_item_jobs: 3,
+            sampling_interval: 10,
+            link_latency: 4,
+            link_words_per_cycle: 1,
+            victim,
+        }
+    }
+
+    /// The balancer's links for `n` clusters of one CTU each.
+    struct Net {
+        orders: Vec<Link<SplitOrder>>,
+        items: Vec<Link<WorkItem>>,
+        net_in: Vec<Link<Job>>,
+        remote_out: Vec<Link<RemoteResult>>,
+        remote_in: Vec<Link<JobResult>>,
+    }
+
+    impl Net {
+        fn new(n: usize) -> Self {
+            Net {
+                orders: (0..n).map(|_| Link::new(1)).collect(),
+                items: (0..n).map(|_| Link::new(1)).collect(),
+                net_in: (0..n).map(|_| Link::new(2)).collect(),
+                remote_out: (0..n).map(|_| Link::new(2)).collect(),
+                remote_in: (0..n).map(|_| Link::new(2)).collect(),
+            }
+        }
+
+        fn tick(&mut self, b: &mut Balancer, now: u64, occupancy: &[usize]) {
+            let mut io = BalancerPorts {
+                occupancy,
+                orders: &mut self.orders,
+                items: &mut self.items,
+                to_ray_buffers: &mut self.net_in,
+                from_icus: &mut self.remote_out,
+                to_ctus: &mut self.remote_in,
+                ctus_per_cluster: 1,
+            };
+            b.tick(now, &mut io);
+            self.commit();
+        }
+
+        fn commit(&mut self) {
+            self.orders.iter_mut().for_each(Link::commit);
+            self.items.iter_mut().for_each(Link::commit);
+            self.net_in.iter_mut().for_each(Link::commit);
+            self.remote_out.iter_mut().for_each(Link::commit);
+            self.remote_in.iter_mut().for_each(Link::commit);
+        }
+
+        /// The split order waiting at cluster `v`'s ray buffer, taken.
+        fn order(&mut self, v: usize) -> Option<SplitOrder> {
+            let o = self.orders[v]
+                .peek()
+                .is_some()
+                .then(|| self.orders[v].pop(UnitId::RayBuffer(v)));
+            self.orders[v].commit();
+            o
+        }
+    }
+
+    fn job(ray: u32) -> Job {
+        Job {
+            ray,
+            slot: ray,
+            patch: 0,
+            ctu: 0,
+            owner: 0,
+        }
+    }
+
+    #[test]
+    fn an_empty_cluster_asks_and_the_most_pending_cluster_gets_the_split_order() {
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 4);
+        let mut net = Net::new(4);
+        // Cluster 1 is empty; 2 and 3 tie on most jobs: the lower id is the victim.
+        net.tick(&mut b, 0, &[5, 0, 9, 9]);
+        assert_eq!(b.stats.work_requests, 1);
+        assert!(b.requesting(1));
+        assert_eq!(net.order(2), Some(SplitOrder { thief: 1, jobs: 3 }));
+        assert_eq!(net.order(3), None);
+    }
+
+    #[test]
+    fn round_robin_victims_turn() {
+        let mut b = Balancer::new(cfg(VictimPolicy::RoundRobin), 3);
+        let mut net = Net::new(3);
+        net.tick(&mut b, 0, &[0, 4, 4]);
+        assert_eq!(net.order(1).map(|o| o.thief), Some(0));
+        // The work-item comes back empty: cluster 0 waits the sampling interval and asks
+        // again; the next victim after 1 is 2.
+        net.items[1].push(
+            UnitId::RayBuffer(1),
+            WorkItem {
+                from: 1,
+                to: 0,
+                jobs: vec![],
+            },
+        );
+        net.commit();
+        net.tick(&mut b, 1, &[0, 4, 4]);
+        for now in 2..11 {
+            net.tick(&mut b, now, &[0, 4, 4]);
+            assert_eq!((net.order(1), net.order(2)), (None, None), "cycle {now}");
+        }
+        net.tick(&mut b, 11, &[0, 4, 4]);
+        assert_eq!(net.order(2).map(|o| o.thief), Some(0));
+    }
+
+    #[test]
+    fn no_victim_retries_after_the_sampling_interval() {
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 2);
+        let mut net = Net::new(2);
+        // Nobody has two jobs to spare: the request is retried 10 cycles later.
+        net.tick(&mut b, 0, &[0, 1]);
+        assert_eq!(b.stats.retries, 1);
+        assert_eq!(b.timer(0), Some(10));
+        for now in 1..10 {
+            net.tick(&mut b, now, &[0, 1]);
+            assert_eq!(b.stats.retries, 1, "cycle {now}");
+        }
+        net.tick(&mut b, 10, &[0, 5]);
+        assert_eq!(net.order(1), Some(SplitOrder { thief: 0, jobs: 3 }));
+        assert_eq!(b.stats.split_orders, 1);
+    }
+
+    #[test]
+    fn a_work_item_crosses_the_link_word_by_word_to_the_thief() {
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 2);
+        let mut net = Net::new(2);
+        net.tick(&mut b, 0, &[0, 5]);
+        net.order(1).unwrap();
+        net.items[1].push(
+            UnitId::RayBuffer(1),
+            WorkItem {
+                from: 1,
+                to: 0,
+                jobs: vec![job(7), job(8)],
+            },
+        );
+        net.commit();
+        let mut arrived = vec![];
+        for now in 1..30 {
+            net.tick(&mut b, now, &[1, 3]);
+            if net.net_in[0].peek().is_some() {
+                arrived.push((now, net.net_in[0].pop(UnitId::RayBuffer(0)).ray));
+                net.net_in[0].commit();
+            }
+        }
+        // Job i arrives link_latency + (i+1)·JOB_WORDS cycles after the split (taken at 1),
+        // and enters the thief's link at that cycle's edge.
+        let w = JOB_WORDS as u64;
+        assert_eq!(arrived, vec![(1 + 4 + w, 7), (1 + 4 + 2 * w, 8)]);
+        assert_eq!(b.stats.jobs_moved, 2);
+        assert!(!b.requesting(0));
+    }
+}
