@@ -488,11 +488,14 @@ mod tests {
         }
     }
 
+    /// A finished CTU, the states it walked, the patches it requested, its (ray, patch) jobs.
+    type Walk = (Ctu, Vec<&'static str>, Vec<u32>, Vec<(u32, u32)>);
+
     /// Runs a CTU against a memory that answers each request after 5 cycles (and leaves
     /// the request link full for the first 12 cycles) and an ICU that answers every job
     /// with no hit. Returns the states walked (consecutive repeats merged), the requested
     /// patches and the (ray, patch) jobs.
-    fn run(p: CtuParams) -> (Ctu, Vec<&'static str>, Vec<u32>, Vec<(u32, u32)>) {
+    fn run(p: CtuParams) -> Walk {
         let (cells, rays) = scene();
         let mut ctu = Ctu::new(p, &[0, 1], &rays, &cells, 3);
         let me = UnitId::Ctu(0, 0);
