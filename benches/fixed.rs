@@ -7,7 +7,7 @@ use shellsim::rays::{hemisphere_rays, Directions, Origins, PAPER_RAYS};
 use shellsim::trace::{PreparedRay, Tracer};
 use shellsim::Scene;
 use shellsim_hw::datapath::intersect;
-use shellsim_hw::{DatapathConfig, Exceptions};
+use shellsim_hw::Exceptions;
 use std::hint::black_box;
 use std::path::Path;
 
@@ -15,7 +15,7 @@ fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
     let tracer = Tracer::new(&scene, 0.05).unwrap();
-    let host = HostFixed::new(&scene, &path, DatapathConfig::default(), 0.05).unwrap();
+    let host = HostFixed::new(&scene, &path, shellsim_hw::config::paper().datapath, 0.05).unwrap();
     let set = hemisphere_rays(
         &scene.patches[0],
         PAPER_RAYS,

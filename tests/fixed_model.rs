@@ -16,8 +16,7 @@ use shellsim_hw::{DatapathConfig, Exceptions};
 use std::path::Path;
 
 fn default_config() -> DatapathConfig {
-    let text = include_str!("../hw/configs/paper.toml");
-    DatapathConfig::from_toml_str(text).unwrap()
+    shellsim_hw::config::paper().datapath
 }
 
 /// Checks `sources` of a scene with the paper's 969 ring rays and 969 Malley rays each.

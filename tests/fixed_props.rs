@@ -61,7 +61,7 @@ proptest! {
             bounds: Aabb { lo: DVec3::ZERO, hi: DVec3::ONE },
             patches,
         };
-        let cfg = DatapathConfig { frac_bits, t_frac_bits: frac_bits, ..Default::default() };
+        let cfg = DatapathConfig { frac_bits, t_frac_bits: frac_bits, ..shellsim_hw::config::paper().datapath };
         let tracer = Tracer::new(&scene, 0.05).unwrap();
         let host = HostFixed::new(&scene, Path::new("prop"), cfg, 0.05).unwrap();
         let set = RaySet { rays: vec![Ray { o, d }], weights: vec![1.0] };
@@ -75,7 +75,7 @@ proptest! {
         v in prop::collection::vec(-(1i64 << 26)..(1i64 << 26), 12),
         o in prop::collection::vec(-(1i64 << 21)..(1i64 << 21), 3),
     ) {
-        let cfg = DatapathConfig::default();
+        let cfg = shellsim_hw::config::paper().datapath;
         let f = cfg.formats().unwrap();
         let mut p = PatchRecord { id: 0, n_verts: 4, v: [[0; 3]; 4] };
         for k in 0..4 {

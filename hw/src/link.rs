@@ -16,10 +16,27 @@
 //! 6. A splitter (dynamic balancing) may take up to `len − 1` items from the back at once:
 //!    never the front item, which the consumer may be popping in the same cycle.
 //!
+//! 7. A link has one producer and one consumer. Every push and pop names the unit doing it
+//!    ([`UnitId`]); a link wired with [`Link::wired`] checks it against its two ends, an
+//!    unwired one records the first pusher and popper and checks every later one. A second
+//!    producer (or consumer) is a model bug and panics, in release builds too.
+//!
 //! Because every read sees committed state and every write is staged, the order in which
 //! producer and consumer are ticked within a cycle cannot change any result.
 
 use std::collections::VecDeque;
+
+/// A unit of the machine: one end of a link, and what the machine ticks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UnitId {
+    Memory,
+    Balancer,
+    /// (cluster, CTU within it).
+    Ctu(usize, usize),
+    Icu(usize),
+    RayBuffer(usize),
+    PatchBuffer(usize),
+}
 
 /// A registered FIFO link carrying `T`.
 #[derive(Clone, Debug)]
@@ -30,8 +47,24 @@ pub struct Link<T> {
     staged_push: VecDeque<T>,
     staged_pop: bool,
     staged_take_back: usize,
+    /// The one unit that pushes (rule 7); `None` until the first push of an unwired link.
+    producer: Option<UnitId>,
+    /// The one unit that pops (rule 7).
+    consumer: Option<UnitId>,
     /// Items transferred (popped) since the start.
     pub transfers: u64,
+}
+
+/// Rule 7: records `by` as the link's `end` on first use, else checks it is the same unit.
+#[inline]
+fn one_end(end: &mut Option<UnitId>, by: UnitId, side: &str) {
+    match *end {
+        Some(u) => assert!(
+            u == by,
+            "rule 7: {by:?} acts as the {side} of a link whose {side} is {u:?}"
+        ),
+        None => *end = Some(by),
+    }
 }
 
 impl<T: Clone> Link<T> {
@@ -52,8 +85,28 @@ impl<T: Clone> Link<T> {
             staged_push: VecDeque::with_capacity(ports),
             staged_pop: false,
             staged_take_back: 0,
+            producer: None,
+            consumer: None,
             transfers: 0,
         }
+    }
+
+    /// The same link with its two ends fixed (the machine's wiring): a push by any unit but
+    /// `producer`, or a pop by any but `consumer`, panics (rule 7).
+    pub fn wired(mut self, producer: UnitId, consumer: UnitId) -> Self {
+        self.producer = Some(producer);
+        self.consumer = Some(consumer);
+        self
+    }
+
+    /// The producer (rule 7), once known.
+    pub fn producer(&self) -> Option<UnitId> {
+        self.producer
+    }
+
+    /// The consumer (rule 7), once known.
+    pub fn consumer(&self) -> Option<UnitId> {
+        self.consumer
     }
 
     /// Registered ready: room at the last edge (rule 1).
@@ -62,9 +115,10 @@ impl<T: Clone> Link<T> {
         self.q.len() + self.staged_push.len() < self.capacity && self.staged_push.len() < self.ports
     }
 
-    /// Stages a push (rule 1). Panics if the rules were broken — a model bug.
+    /// Stages a push by `by` (rules 1 and 7). Panics if the rules were broken — a model bug.
     #[inline]
-    pub fn push(&mut self, x: T) {
+    pub fn push(&mut self, by: UnitId, x: T) {
+        one_end(&mut self.producer, by, "producer");
         assert!(
             self.can_push(),
             "push without ready or more pushes than ports in a cycle"
@@ -82,16 +136,19 @@ impl<T: Clone> Link<T> {
         }
     }
 
-    /// Stages popping the front (rule 3).
+    /// Stages popping the front by `by` (rules 3 and 7).
     #[inline]
-    pub fn pop(&mut self) -> T {
+    pub fn pop(&mut self, by: UnitId) -> T {
+        one_end(&mut self.consumer, by, "consumer");
         assert!(!self.staged_pop, "two pops in a cycle");
         self.staged_pop = true;
         self.q.front().cloned().expect("pop without valid")
     }
 
-    /// Stages taking `k` items from the back (rule 6) and returns them, oldest first.
-    pub fn take_back(&mut self, k: usize) -> Vec<T> {
+    /// Stages taking `k` items from the back (rule 6) and returns them, oldest first. The
+    /// splitter is the link's producer (it takes back what it queued; rule 7).
+    pub fn take_back(&mut self, by: UnitId, k: usize) -> Vec<T> {
+        one_end(&mut self.producer, by, "producer");
         assert!(
             self.staged_take_back == 0 && k < self.q.len().max(1),
             "rule 6"
@@ -157,6 +214,9 @@ impl<T: Clone> Link<T> {
 mod tests {
     use super::*;
 
+    const P: UnitId = UnitId::Ctu(0, 0);
+    const C: UnitId = UnitId::RayBuffer(0);
+
     /// The naive model a skid buffer must match: one item per cycle end to end.
     #[test]
     fn a_skid_buffer_moves_one_item_per_cycle_in_either_tick_order() {
@@ -167,13 +227,13 @@ mod tests {
             for _cycle in 0..100 {
                 let mut produce = |l: &mut Link<u32>| {
                     if l.can_push() {
-                        l.push(sent);
+                        l.push(P, sent);
                         sent += 1;
                     }
                 };
                 let consume = |l: &mut Link<u32>, got: &mut Vec<u32>| {
                     if l.peek().is_some() {
-                        got.push(l.pop());
+                        got.push(l.pop(C));
                     }
                 };
                 if producer_first {
@@ -194,15 +254,57 @@ mod tests {
     #[test]
     fn reads_see_only_the_last_edge() {
         let mut l: Link<u8> = Link::new(1);
-        l.push(7);
+        l.push(P, 7);
         assert!(l.peek().is_none(), "a staged push is not visible");
         assert!(!l.can_push());
         l.commit();
         assert_eq!(l.peek(), Some(&7));
         assert!(!l.can_push(), "full at capacity 1");
-        assert_eq!(l.pop(), 7);
+        assert_eq!(l.pop(C), 7);
         assert!(!l.can_push(), "a staged pop does not free room this cycle");
         l.commit();
         assert!(l.can_push());
+    }
+
+    #[test]
+    #[should_panic(expected = "rule 7")]
+    fn a_second_producer_panics() {
+        let mut l: Link<u8> = Link::new(4);
+        l.push(P, 1);
+        l.commit();
+        l.push(UnitId::Ctu(0, 1), 2);
+    }
+
+    #[test]
+    #[should_panic(expected = "rule 7")]
+    fn a_wired_link_refuses_another_producer_on_the_first_push() {
+        let mut l: Link<u8> = Link::new(4).wired(P, C);
+        l.push(UnitId::Memory, 1);
+    }
+
+    #[test]
+    #[should_panic(expected = "rule 7")]
+    fn a_second_consumer_panics() {
+        let mut l: Link<u8> = Link::new(4).wired(P, C);
+        l.push(P, 1);
+        l.commit();
+        l.push(P, 2);
+        l.commit();
+        l.pop(C);
+        l.commit();
+        l.pop(UnitId::Icu(0));
+    }
+
+    #[test]
+    fn take_back_never_takes_the_front() {
+        let mut l: Link<u8> = Link::with_ports(8, 4).wired(P, C);
+        for x in 0..4 {
+            l.push(P, x);
+        }
+        l.commit();
+        assert_eq!(l.pop(C), 0);
+        assert_eq!(l.take_back(P, 3), vec![1, 2, 3]);
+        l.commit();
+        assert!(l.is_empty());
     }
 }

@@ -21,8 +21,8 @@
 //! The divider is a radix-2 restoring divider: one quotient bit per cycle, pipelined.
 
 use crate::config::Formats;
-use crate::format::{round_div, round_shift};
-use crate::record::{PatchRecord, RayRecord};
+use crate::datapath::format::{round_div, round_shift};
+use crate::datapath::record::{PatchRecord, RayRecord};
 
 /// Exceptions counted by the datapath, never silent.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -260,7 +260,6 @@ pub fn intersect(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::DatapathConfig;
 
     fn q(f: &Formats, x: f64) -> i64 {
         f.coord.quantize(x).unwrap()
@@ -277,7 +276,7 @@ mod tests {
 
     #[test]
     fn a_vertical_ray_hits_a_square_at_the_right_t() {
-        let f = DatapathConfig::default().formats().unwrap();
+        let f = crate::config::paper().datapath.formats().unwrap();
         let one = 1i64 << f.dir.frac_bits;
         let p = square(&f, 3, 0.5, 0.1, 0.9);
         let r = RayRecord::new(0, [q(&f, 0.3), q(&f, 0.4), q(&f, 0.25)], [0, 0, one], &f);
@@ -296,7 +295,7 @@ mod tests {
 
     #[test]
     fn a_ray_exactly_through_a_shared_edge_hits_one_of_the_two() {
-        let f = DatapathConfig::default().formats().unwrap();
+        let f = crate::config::paper().datapath.formats().unwrap();
         let one = 1i64 << f.dir.frac_bits;
         let a = square(&f, 0, 0.5, 0.1, 0.5);
         let b = square(&f, 1, 0.5, 0.5, 0.9);
@@ -324,7 +323,7 @@ mod tests {
 
     #[test]
     fn a_record_outside_its_format_is_reported() {
-        let f = DatapathConfig::default().formats().unwrap();
+        let f = crate::config::paper().datapath.formats().unwrap();
         let mut p = square(&f, 0, 0.5, 0.1, 0.9);
         p.v[0][0] = f.coord.max_raw() as i64 * 4;
         let r = RayRecord::new(0, [0; 3], [0, 0, 1 << f.dir.frac_bits], &f);

@@ -7,7 +7,7 @@
 //! so no error accumulates however long the walk. A zero direction component is the
 //! saturating infinity: its t_a never wins (a flag in hardware). Ties step the lowest axis.
 
-use crate::record::{CellTable, RayRecord};
+use crate::datapath::record::{CellTable, RayRecord};
 
 /// The DDA state of one ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -127,7 +127,6 @@ impl FixedDda {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::DatapathConfig;
 
     fn table(n: u32, cell: i64) -> CellTable {
         let cells = (n * n * n) as usize;
@@ -142,7 +141,7 @@ mod tests {
 
     #[test]
     fn a_diagonal_ray_visits_a_staircase_and_ends() {
-        let f = DatapathConfig::default().formats().unwrap();
+        let f = crate::config::paper().datapath.formats().unwrap();
         let t = table(4, 16);
         // Direction (2, 1, 0): crosses x twice as often as y; z never.
         let r = RayRecord::new(0, [1, 1, 5], [2 << 10, 1 << 10, 0], &f);
@@ -164,7 +163,7 @@ mod tests {
 
     #[test]
     fn exact_ties_step_the_lowest_axis_first() {
-        let f = DatapathConfig::default().formats().unwrap();
+        let f = crate::config::paper().datapath.formats().unwrap();
         let t = table(4, 16);
         let r = RayRecord::new(0, [0, 0, 0], [1 << 10, 1 << 10, 1 << 10], &f);
         let mut d = FixedDda::new(&t, &r).unwrap();
@@ -178,7 +177,7 @@ mod tests {
 
     #[test]
     fn zero_direction_components_never_step() {
-        let f = DatapathConfig::default().formats().unwrap();
+        let f = crate::config::paper().datapath.formats().unwrap();
         let t = table(4, 16);
         let r = RayRecord::new(0, [8, 8, 8], [0, 0, -(1 << 10)], &f);
         let mut d = FixedDda::new(&t, &r).unwrap();

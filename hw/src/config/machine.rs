@@ -1,7 +1,8 @@
-//! The machine's configuration: the `[machine]` table of hw/configs/*.toml (clusters, CTUs,
-//! timing, buffers, arbiter) with the `[datapath]` formats, validated into one typed value.
+//! The `[machine]` and `[balance]` tables of hw/configs/*.toml (clusters, CTUs, timing,
+//! buffers, arbiter; dynamic balancing), each with its validation.
 
-use crate::config::{ConfigError, DatapathConfig};
+use super::ConfigError;
+use crate::datapath::format::Format;
 use serde::{Deserialize, Serialize};
 
 /// How the global-memory arbiter picks among waiting requests.
@@ -39,8 +40,11 @@ pub struct MachineTable {
     pub divider_bits_per_stage: u32,
     /// A CTU ends a subshell (and joins) once it has loaded this many patches in it.
     pub subshell_max_patches: u32,
-    /// Shell radius (in units of the scene; the paper's 0.289).
+    /// Shell radius (in units of the scene; the paper's 0.289). It must be representable in
+    /// the t format (see [`MachineTable::shell_raw`]).
     pub shell_radius: f64,
+    /// Grid cell edge in scene units (Table 12.1's 0.05).
+    pub cell_size: f64,
     /// Jump over cycles in which every unit waits on a timer.
     pub cycle_jump: bool,
     /// Stop with a report when nothing progresses for this many cycles.
@@ -57,7 +61,8 @@ pub enum VictimPolicy {
     RoundRobin,
 }
 
-/// The `[balance]` table: dynamic workload balancing between clusters.
+/// The `[balance]` table: dynamic workload balancing between clusters. The table is required
+/// (no `Default`): a built-in default could only differ from paper.toml, the one source.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct BalanceTable {
@@ -75,47 +80,10 @@ pub struct BalanceTable {
     pub victim: VictimPolicy,
 }
 
-impl Default for BalanceTable {
-    fn default() -> Self {
-        BalanceTable {
-            enabled: false,
-            work_item_jobs: 16,
-            sampling_interval: 32,
-            link_latency: 4,
-            link_words_per_cycle: 1,
-            victim: VictimPolicy::MostPending,
-        }
-    }
-}
-
-/// A whole machine configuration file.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MachineConfig {
-    pub machine: MachineTable,
-    #[serde(default)]
-    pub balance: BalanceTable,
-    pub datapath: DatapathConfig,
-}
-
-impl MachineConfig {
-    /// Parses and validates a configuration file's text.
-    pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
-        let cfg: MachineConfig = toml::from_str(text).map_err(|e| ConfigError {
-            key: e
-                .span()
-                .map(|s| format!("bytes {}..{}", s.start, s.end))
-                .unwrap_or_else(|| "toml".into()),
-            what: e.message().to_string(),
-        })?;
-        cfg.validate()?;
-        Ok(cfg)
-    }
-
-    /// Checks every value; the error names the key.
-    pub fn validate(&self) -> Result<(), ConfigError> {
-        self.datapath.formats()?;
-        let m = &self.machine;
+impl MachineTable {
+    /// Checks every value against `t`, the datapath's t format; the error names the key
+    /// (`machine.…`).
+    pub fn validate(&self, t: Format) -> Result<(), ConfigError> {
         let err = |key: &str, what: String| ConfigError {
             key: format!("machine.{key}"),
             what,
@@ -127,90 +95,117 @@ impl MachineConfig {
                 Ok(())
             }
         };
-        range("clusters", m.clusters as u64, 1, 256)?;
-        range("ctus_per_cluster", m.ctus_per_cluster as u64, 1, 64)?;
-        range("dda_cycles_per_step", m.dda_cycles_per_step as u64, 1, 1000)?;
-        range("memory_latency", m.memory_latency as u64, 0, 100_000)?;
+        range("clusters", self.clusters as u64, 1, 256)?;
+        range("ctus_per_cluster", self.ctus_per_cluster as u64, 1, 64)?;
+        range(
+            "dda_cycles_per_step",
+            self.dda_cycles_per_step as u64,
+            1,
+            1000,
+        )?;
+        range("memory_latency", self.memory_latency as u64, 0, 100_000)?;
         range(
             "ray_buffer_capacity",
-            m.ray_buffer_capacity as u64,
+            self.ray_buffer_capacity as u64,
             1,
             1 << 20,
         )?;
         range(
             "patch_buffer_capacity",
-            m.patch_buffer_capacity as u64,
+            self.patch_buffer_capacity as u64,
             1,
             1 << 16,
         )?;
         range(
             "request_queue_capacity",
-            m.request_queue_capacity as u64,
+            self.request_queue_capacity as u64,
             1,
             1 << 16,
         )?;
         range(
             "divider_bits_per_stage",
-            m.divider_bits_per_stage as u64,
+            self.divider_bits_per_stage as u64,
             1,
             64,
         )?;
         range(
             "subshell_max_patches",
-            m.subshell_max_patches as u64,
+            self.subshell_max_patches as u64,
             1,
             1 << 24,
         )?;
-        range("watchdog_cycles", m.watchdog_cycles, 10, 1 << 40)?;
-        let b = &self.balance;
-        let berr = |key: &str, what: String| ConfigError {
-            key: format!("balance.{key}"),
-            what,
-        };
-        if b.work_item_jobs < 1 || b.work_item_jobs > m.ray_buffer_capacity {
-            return Err(berr(
-                "work_item_jobs",
-                format!(
-                    "{} is outside 1..=ray_buffer_capacity ({})",
-                    b.work_item_jobs, m.ray_buffer_capacity
-                ),
-            ));
-        }
-        if !(1..=1 << 20).contains(&b.sampling_interval) {
-            return Err(berr(
-                "sampling_interval",
-                format!("{} is outside 1..=2^20", b.sampling_interval),
-            ));
-        }
-        if b.link_latency > 100_000 {
-            return Err(berr(
-                "link_latency",
-                format!("{} is absurdly large", b.link_latency),
-            ));
-        }
-        if !(1..=64).contains(&b.link_words_per_cycle) {
-            return Err(berr(
-                "link_words_per_cycle",
-                format!("{} is outside 1..=64", b.link_words_per_cycle),
-            ));
-        }
-        if !(m.shell_radius.is_finite() && m.shell_radius > 0.0 && m.shell_radius <= 1e6) {
+        range("watchdog_cycles", self.watchdog_cycles, 10, 1 << 40)?;
+        self.shell_raw(t)?;
+        if !(self.cell_size.is_finite() && self.cell_size > 0.0) {
             return Err(err(
-                "shell_radius",
-                format!("{} must be a positive length", m.shell_radius),
+                "cell_size",
+                format!("{} must be a finite length above 0", self.cell_size),
             ));
         }
         Ok(())
     }
 
-    /// Divider stages: the t format's bits over the bits per stage.
-    pub fn divider_stages(&self) -> u32 {
-        let f = self.datapath.formats().expect("validated");
-        f.t.bits().div_ceil(self.machine.divider_bits_per_stage)
+    /// The shell radius quantized to the t format `t` (raw, at least one LSB): the host's
+    /// one conversion of it. A radius that is not a positive length, rounds to zero, or does
+    /// not fit `t` is an error naming `machine.shell_radius` — never clamped.
+    pub fn shell_raw(&self, t: Format) -> Result<i64, ConfigError> {
+        let r = self.shell_radius;
+        let err = |what: String| ConfigError {
+            key: "machine.shell_radius".into(),
+            what,
+        };
+        if !(r.is_finite() && r > 0.0) {
+            return Err(err(format!("{r} must be a positive length")));
+        }
+        match t.quantize(r) {
+            Some(raw) if raw >= 1 => Ok(raw),
+            Some(_) => Err(err(format!(
+                "{r} rounds to 0 in the t format {t} (its LSB is {})",
+                t.lsb()
+            ))),
+            None => Err(err(format!(
+                "{r} does not fit the t format {t} (at most {})",
+                t.to_f64(t.max_raw())
+            ))),
+        }
     }
+}
 
-    /// ICU pipeline depth: translate, shear, edges, interpolate, the divider's stages, compare.
-    pub fn pipeline_depth(&self) -> u32 {
-        4 + self.divider_stages() + 1
+impl BalanceTable {
+    /// Checks every value; `ray_buffer_capacity` bounds a work-item. The error names the
+    /// key (`balance.…`).
+    pub fn validate(&self, ray_buffer_capacity: u32) -> Result<(), ConfigError> {
+        let berr = |key: &str, what: String| ConfigError {
+            key: format!("balance.{key}"),
+            what,
+        };
+        if self.work_item_jobs < 1 || self.work_item_jobs > ray_buffer_capacity {
+            return Err(berr(
+                "work_item_jobs",
+                format!(
+                    "{} is outside 1..=ray_buffer_capacity ({})",
+                    self.work_item_jobs, ray_buffer_capacity
+                ),
+            ));
+        }
+        if !(1..=1 << 20).contains(&self.sampling_interval) {
+            return Err(berr(
+                "sampling_interval",
+                format!("{} is outside 1..=2^20", self.sampling_interval),
+            ));
+        }
+        if self.link_latency > 100_000 {
+            return Err(berr(
+                "link_latency",
+                format!("{} is absurdly large", self.link_latency),
+            ));
+        }
+        if !(1..=64).contains(&self.link_words_per_cycle) {
+            return Err(berr(
+                "link_words_per_cycle",
+                format!("{} is outside 1..=64", self.link_words_per_cycle),
+            ));
+        }
+        Ok(())
     }
 }

@@ -12,10 +12,13 @@
 //! its shell as usual. A request that finds no work is retried after `sampling_interval`.
 //! Every job is computed exactly once: a split removes jobs from the victim's queue.
 
-use crate::link::Link;
-use crate::machine_config::{BalanceTable, VictimPolicy};
+use crate::config::{BalanceTable, VictimPolicy};
+use crate::link::{Link, UnitId};
 use crate::msg::{Job, JobResult, RemoteResult, SplitOrder, WorkItem, JOB_WORDS};
 use std::collections::VecDeque;
+
+/// The balancer's end of its links (rule 7).
+const ME: UnitId = UnitId::Balancer;
 
 /// A cluster's work request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,8 +64,9 @@ pub struct BalancerPorts<'a> {
     pub items: &'a mut [Link<WorkItem>],
     pub to_ray_buffers: &'a mut [Link<Job>],
     pub from_icus: &'a mut [Link<RemoteResult>],
-    /// Per cluster, per CTU.
-    pub to_ctus: &'a mut [Vec<Link<JobResult>>],
+    /// Per CTU, cluster-major: CTU j of cluster c is `c * ctus_per_cluster + j`.
+    pub to_ctus: &'a mut [Link<JobResult>],
+    pub ctus_per_cluster: usize,
 }
 
 impl Balancer {
@@ -152,7 +156,7 @@ impl Balancer {
         // Work-items from victims go onto the link (or, empty, send their thief to wait).
         for c in 0..n {
             if io.items[c].peek().is_some() {
-                let item = io.items[c].pop();
+                let item = io.items[c].pop(ME);
                 let thief = item.to as usize;
                 if item.jobs.is_empty() {
                     self.requests[thief] = Some(Request {
@@ -176,7 +180,7 @@ impl Balancer {
         for c in 0..n {
             if let Some(&(at, job)) = self.inbound[c].front() {
                 if at <= now && io.to_ray_buffers[c].can_push() {
-                    io.to_ray_buffers[c].push(job);
+                    io.to_ray_buffers[c].push(ME, job);
                     self.inbound[c].pop_front();
                 }
             }
@@ -184,7 +188,7 @@ impl Balancer {
         // Results of moved jobs go home.
         for c in 0..n {
             if io.from_icus[c].peek().is_some() {
-                let r = io.from_icus[c].pop();
+                let r = io.from_icus[c].pop(ME);
                 let at = now + self.link_cycles(JOB_WORDS as u64);
                 self.returns[r.owner as usize].push_back((at, r));
                 self.stats.link_words += JOB_WORDS as u64;
@@ -192,9 +196,9 @@ impl Balancer {
         }
         for c in 0..n {
             if let Some(&(at, r)) = self.returns[c].front() {
-                let port = &mut io.to_ctus[c][r.ctu as usize];
+                let port = &mut io.to_ctus[c * io.ctus_per_cluster + r.ctu as usize];
                 if at <= now && port.can_push() {
-                    port.push(r.result);
+                    port.push(ME, r.result);
                     self.returns[c].pop_front();
                     self.stats.results_returned += 1;
                 }
@@ -218,10 +222,13 @@ impl Balancer {
             }
             match self.victim(c, io) {
                 Some(v) => {
-                    io.orders[v].push(SplitOrder {
-                        thief: c as u16,
-                        jobs: self.cfg.work_item_jobs,
-                    });
+                    io.orders[v].push(
+                        ME,
+                        SplitOrder {
+                            thief: c as u16,
+                            jobs: self.cfg.work_item_jobs,
+                        },
+                    );
                     self.requests[c] = Some(Request { ordered: true, ..r });
                     self.stats.split_orders += 1;
                 }
@@ -253,5 +260,170 @@ impl Balancer {
                 Some(v)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cfg(victim: VictimPolicy) -> BalanceTable {
+        BalanceTable {
+            enabled: true,
+            work_item_jobs: 3,
+            sampling_interval: 10,
+            link_latency: 4,
+            link_words_per_cycle: 1,
+            victim,
+        }
+    }
+
+    /// The balancer's links for `n` clusters of one CTU each.
+    struct Net {
+        orders: Vec<Link<SplitOrder>>,
+        items: Vec<Link<WorkItem>>,
+        net_in: Vec<Link<Job>>,
+        remote_out: Vec<Link<RemoteResult>>,
+        remote_in: Vec<Link<JobResult>>,
+    }
+
+    impl Net {
+        fn new(n: usize) -> Self {
+            Net {
+                orders: (0..n).map(|_| Link::new(1)).collect(),
+                items: (0..n).map(|_| Link::new(1)).collect(),
+                net_in: (0..n).map(|_| Link::new(2)).collect(),
+                remote_out: (0..n).map(|_| Link::new(2)).collect(),
+                remote_in: (0..n).map(|_| Link::new(2)).collect(),
+            }
+        }
+
+        fn tick(&mut self, b: &mut Balancer, now: u64, occupancy: &[usize]) {
+            let mut io = BalancerPorts {
+                occupancy,
+                orders: &mut self.orders,
+                items: &mut self.items,
+                to_ray_buffers: &mut self.net_in,
+                from_icus: &mut self.remote_out,
+                to_ctus: &mut self.remote_in,
+                ctus_per_cluster: 1,
+            };
+            b.tick(now, &mut io);
+            self.commit();
+        }
+
+        fn commit(&mut self) {
+            self.orders.iter_mut().for_each(Link::commit);
+            self.items.iter_mut().for_each(Link::commit);
+            self.net_in.iter_mut().for_each(Link::commit);
+            self.remote_out.iter_mut().for_each(Link::commit);
+            self.remote_in.iter_mut().for_each(Link::commit);
+        }
+
+        /// The split order waiting at cluster `v`'s ray buffer, taken.
+        fn order(&mut self, v: usize) -> Option<SplitOrder> {
+            let o = self.orders[v]
+                .peek()
+                .is_some()
+                .then(|| self.orders[v].pop(UnitId::RayBuffer(v)));
+            self.orders[v].commit();
+            o
+        }
+    }
+
+    fn job(ray: u32) -> Job {
+        Job {
+            ray,
+            slot: ray,
+            patch: 0,
+            ctu: 0,
+            owner: 0,
+        }
+    }
+
+    #[test]
+    fn an_empty_cluster_asks_and_the_most_pending_cluster_gets_the_split_order() {
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 4);
+        let mut net = Net::new(4);
+        // Cluster 1 is empty; 2 and 3 tie on most jobs: the lower id is the victim.
+        net.tick(&mut b, 0, &[5, 0, 9, 9]);
+        assert_eq!(b.stats.work_requests, 1);
+        assert!(b.requesting(1));
+        assert_eq!(net.order(2), Some(SplitOrder { thief: 1, jobs: 3 }));
+        assert_eq!(net.order(3), None);
+    }
+
+    #[test]
+    fn round_robin_victims_turn() {
+        let mut b = Balancer::new(cfg(VictimPolicy::RoundRobin), 3);
+        let mut net = Net::new(3);
+        net.tick(&mut b, 0, &[0, 4, 4]);
+        assert_eq!(net.order(1).map(|o| o.thief), Some(0));
+        // The work-item comes back empty: cluster 0 waits the sampling interval and asks
+        // again; the next victim after 1 is 2.
+        net.items[1].push(
+            UnitId::RayBuffer(1),
+            WorkItem {
+                from: 1,
+                to: 0,
+                jobs: vec![],
+            },
+        );
+        net.commit();
+        net.tick(&mut b, 1, &[0, 4, 4]);
+        for now in 2..11 {
+            net.tick(&mut b, now, &[0, 4, 4]);
+            assert_eq!((net.order(1), net.order(2)), (None, None), "cycle {now}");
+        }
+        net.tick(&mut b, 11, &[0, 4, 4]);
+        assert_eq!(net.order(2).map(|o| o.thief), Some(0));
+    }
+
+    #[test]
+    fn no_victim_retries_after_the_sampling_interval() {
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 2);
+        let mut net = Net::new(2);
+        // Nobody has two jobs to spare: the request is retried 10 cycles later.
+        net.tick(&mut b, 0, &[0, 1]);
+        assert_eq!(b.stats.retries, 1);
+        assert_eq!(b.timer(0), Some(10));
+        for now in 1..10 {
+            net.tick(&mut b, now, &[0, 1]);
+            assert_eq!(b.stats.retries, 1, "cycle {now}");
+        }
+        net.tick(&mut b, 10, &[0, 5]);
+        assert_eq!(net.order(1), Some(SplitOrder { thief: 0, jobs: 3 }));
+        assert_eq!(b.stats.split_orders, 1);
+    }
+
+    #[test]
+    fn a_work_item_crosses_the_link_word_by_word_to_the_thief() {
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 2);
+        let mut net = Net::new(2);
+        net.tick(&mut b, 0, &[0, 5]);
+        net.order(1).unwrap();
+        net.items[1].push(
+            UnitId::RayBuffer(1),
+            WorkItem {
+                from: 1,
+                to: 0,
+                jobs: vec![job(7), job(8)],
+            },
+        );
+        net.commit();
+        let mut arrived = vec![];
+        for now in 1..30 {
+            net.tick(&mut b, now, &[1, 3]);
+            if net.net_in[0].peek().is_some() {
+                arrived.push((now, net.net_in[0].pop(UnitId::RayBuffer(0)).ray));
+                net.net_in[0].commit();
+            }
+        }
+        // Job i arrives link_latency + (i+1)·JOB_WORDS cycles after the split (taken at 1),
+        // and enters the thief's link at that cycle's edge.
+        let w = JOB_WORDS as u64;
+        assert_eq!(arrived, vec![(1 + 4 + w, 7), (1 + 4 + 2 * w, 8)]);
+        assert_eq!(b.stats.jobs_moved, 2);
+        assert!(!b.requesting(0));
     }
 }

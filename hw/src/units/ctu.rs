@@ -22,12 +22,12 @@
 //!   retires rays, and goes on with the shell (subshell join) or to the next one.
 //! - `Done`: no ray remains.
 
+use crate::datapath::dda::FixedDda;
+use crate::datapath::model::STOP_SLACK_T_LSB;
+use crate::datapath::record::{CellTable, RayRecord};
 use crate::datapath::{compare, FixedHit};
-use crate::dda::FixedDda;
-use crate::link::Link;
-use crate::model::STOP_SLACK_T_LSB;
+use crate::link::{Link, UnitId};
 use crate::msg::{Job, JobResult, MemRequest, PatchArrival};
-use crate::record::{CellTable, RayRecord};
 use bitvec::prelude::*;
 
 /// The traversal FSM's states.
@@ -235,13 +235,14 @@ impl Ctu {
 
     /// One clock cycle.
     pub fn tick(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
+        let me = UnitId::Ctu(self.p.cluster as usize, self.p.local as usize);
         let mut busy = false;
         let mut stalled = false;
         // Result ports: one local and one remote result per cycle, each through a compare
         // stage of the datapath (two results for one ray apply in port order).
         for port in [&mut *io.results, &mut *io.remote_results] {
             if port.peek().is_some() {
-                let r = port.pop();
+                let r = port.pop(me);
                 let slot = &mut self.slots[r.slot as usize];
                 if let Some(t) = r.t {
                     compare(&mut slot.best, FixedHit { patch: r.patch, t });
@@ -256,13 +257,16 @@ impl Ctu {
             Some((patch, i)) => {
                 if io.jobs.can_push() {
                     let slot = self.remaining[i];
-                    io.jobs.push(Job {
-                        ray: self.slots[slot as usize].ray,
-                        slot,
-                        patch,
-                        ctu: self.p.local,
-                        owner: self.p.cluster,
-                    });
+                    io.jobs.push(
+                        me,
+                        Job {
+                            ray: self.slots[slot as usize].ray,
+                            slot,
+                            patch,
+                            ctu: self.p.local,
+                            owner: self.p.cluster,
+                        },
+                    );
                     self.outstanding += 1;
                     self.stats.jobs_issued += 1;
                     self.issuing = (i + 1 < self.remaining.len()).then_some((patch, i + 1));
@@ -273,7 +277,7 @@ impl Ctu {
             }
             None => {
                 if io.arrivals.peek().is_some() {
-                    let a = io.arrivals.pop();
+                    let a = io.arrivals.pop(me);
                     self.pending_loads -= 1;
                     if !self.remaining.is_empty() {
                         self.issuing = Some((a.patch, 0));
@@ -313,12 +317,15 @@ impl Ctu {
                         self.state = CtuState::Scan;
                         busy = true;
                     } else if io.requests.can_push() {
-                        io.requests.push(MemRequest {
-                            patch: id,
-                            cluster: self.p.cluster,
-                            ctu: self.p.local,
-                            issued: now,
-                        });
+                        io.requests.push(
+                            me,
+                            MemRequest {
+                                patch: id,
+                                cluster: self.p.cluster,
+                                ctu: self.p.local,
+                                issued: now,
+                            },
+                        );
                         self.loaded.set(id as usize, true);
                         self.pending_loads += 1;
                         self.subshell_loads += 1;
@@ -441,5 +448,160 @@ impl Ctu {
                 self.state = self.enter_ray();
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::link::UnitId;
+
+    /// A row of 4 cells along x (256 LSB each): cell 0 holds patch 1, cell 1 patch 2, cell 2
+    /// the source (0) and patch 1 again, cell 3 nothing.
+    fn scene() -> (CellTable, Vec<RayRecord>) {
+        let cells = CellTable {
+            dims: [4, 1, 1],
+            cell_raw: 256,
+            first: vec![0, 1, 2, 4],
+            count: vec![1, 1, 2, 0],
+            ids: vec![1, 2, 0, 1],
+        };
+        let f = crate::config::paper().datapath.formats().unwrap();
+        let rays = vec![
+            RayRecord::new(0, [32, 128, 128], [4096, 0, 0], &f),
+            RayRecord::new(1, [64, 100, 100], [4096, 0, 0], &f),
+        ];
+        (cells, rays)
+    }
+
+    fn params(subshell_max_patches: u32) -> CtuParams {
+        let f = crate::config::paper().datapath.formats().unwrap();
+        CtuParams {
+            cluster: 0,
+            local: 0,
+            source: 0,
+            dda_cycles_per_step: 2,
+            subshell_max_patches,
+            shell_raw: f.t.max_raw() as i64,
+            t_frac: f.t.frac_bits,
+            t_max: f.t.max_raw() as i64,
+        }
+    }
+
+    /// A finished CTU, the states it walked, the patches it requested, its (ray, patch) jobs.
+    type Walk = (Ctu, Vec<&'static str>, Vec<u32>, Vec<(u32, u32)>);
+
+    /// Runs a CTU against a memory that answers each request after 5 cycles (and leaves
+    /// the request link full for the first 12 cycles) and an ICU that answers every job
+    /// with no hit. Returns the states walked (consecutive repeats merged), the requested
+    /// patches and the (ray, patch) jobs.
+    fn run(p: CtuParams) -> Walk {
+        let (cells, rays) = scene();
+        let mut ctu = Ctu::new(p, &[0, 1], &rays, &cells, 3);
+        let me = UnitId::Ctu(0, 0);
+        let mut requests = Link::new(1).wired(me, UnitId::Memory);
+        let mut arrivals = Link::new(2).wired(UnitId::PatchBuffer(0), me);
+        let mut jobs = Link::new(2).wired(me, UnitId::RayBuffer(0));
+        let mut results = Link::new(2).wired(UnitId::Icu(0), me);
+        let mut remote = Link::new(2).wired(UnitId::Balancer, me);
+        let (mut states, mut asked, mut issued) = (vec![], vec![], vec![]);
+        let mut in_memory: Vec<(u64, u32)> = vec![];
+        for now in 0..500u64 {
+            let mut io = CtuPorts {
+                requests: &mut requests,
+                arrivals: &mut arrivals,
+                jobs: &mut jobs,
+                results: &mut results,
+                remote_results: &mut remote,
+            };
+            ctu.tick(now, &mut io, &cells);
+            if states.last() != Some(&ctu.state.name()) {
+                states.push(ctu.state.name());
+            }
+            if now >= 12 && requests.peek().is_some() {
+                let r = requests.pop(UnitId::Memory);
+                asked.push(r.patch);
+                in_memory.push((now + 5, r.patch));
+            }
+            if let Some(&(at, patch)) = in_memory.first() {
+                if at <= now && arrivals.can_push() {
+                    arrivals.push(UnitId::PatchBuffer(0), PatchArrival { patch, ctu: 0 });
+                    in_memory.remove(0);
+                }
+            }
+            if jobs.peek().is_some() && results.can_push() {
+                let j = jobs.pop(UnitId::RayBuffer(0));
+                issued.push((j.ray, j.patch));
+                results.push(
+                    UnitId::Icu(0),
+                    JobResult {
+                        slot: j.slot,
+                        patch: j.patch,
+                        t: None,
+                    },
+                );
+            }
+            for l in [
+                &mut requests as &mut dyn Commit,
+                &mut arrivals,
+                &mut jobs,
+                &mut results,
+                &mut remote,
+            ] {
+                l.commit();
+            }
+            if ctu.done() {
+                break;
+            }
+        }
+        (ctu, states, asked, issued)
+    }
+
+    trait Commit {
+        fn commit(&mut self);
+    }
+
+    impl<T: Clone> Commit for Link<T> {
+        fn commit(&mut self) {
+            Link::commit(self);
+        }
+    }
+
+    #[test]
+    fn the_fsm_walks_its_states_and_issues_one_job_per_ray_and_patch() {
+        let (ctu, states, asked, issued) = run(params(64));
+        assert!(ctu.done(), "{states:?}");
+        // Each patch is requested once; the source never; patch 1 seen again is not reloaded.
+        assert_eq!(asked, vec![1, 2]);
+        let mut jobs = issued.clone();
+        jobs.sort();
+        assert_eq!(jobs, vec![(0, 1), (0, 2), (1, 1), (1, 2)]);
+        assert_eq!(ctu.stats.jobs_issued, 4);
+        assert_eq!(ctu.stats.results, 4);
+        // Patch 1 goes out at once; patch 2 finds the request link still full (REQUEST).
+        assert_eq!(
+            &states[..5],
+            &["SHELL_START", "SCAN", "STEP", "SCAN", "REQUEST"][..],
+            "{states:?}"
+        );
+        for s in ["STEP", "JOIN"] {
+            assert!(states.contains(&s), "{s}: {states:?}");
+        }
+        assert_eq!(states.last(), Some(&"DONE"));
+        // No hit anywhere: both rays walk out of the grid and retire at the shell's join.
+        assert_eq!(ctu.remaining(), 0);
+        assert!(ctu.hits().all(|(_, h)| h.is_none()));
+    }
+
+    #[test]
+    fn a_full_subshell_joins_before_stepping_on() {
+        // One patch per subshell: the join after patch 1 waits for its jobs, then the shell
+        // goes on and loads patch 2 in a second subshell.
+        let (ctu, states, asked, _) = run(params(1));
+        assert!(ctu.done());
+        assert_eq!(asked, vec![1, 2]);
+        assert!(ctu.stats.subshells >= 2, "{:?}", ctu.stats);
+        let joins = states.iter().filter(|&&s| s == "JOIN").count();
+        assert!(joins >= 2, "{states:?}");
     }
 }

@@ -3,9 +3,9 @@
 //! over the cell table; the two agree exactly.
 
 use crate::config::Formats;
+use crate::datapath::dda::FixedDda;
+use crate::datapath::record::{CellTable, PatchRecord, RayRecord};
 use crate::datapath::{compare, intersect, Exceptions, FixedHit};
-use crate::dda::FixedDda;
-use crate::record::{CellTable, PatchRecord, RayRecord};
 
 /// Slack of the grid variant's stopping rule, in t LSBs: it stops once the next cell starts
 /// beyond best t + this. The interpolated hit point lies within ~2 LSBs of its polygon

@@ -1,7 +1,8 @@
 //! Datapath configuration: the formats of coordinates, directions and t (the `[datapath]`
 //! table of hw/configs/*.toml), validated, with every intermediate width derived from them.
 
-use crate::format::Format;
+use super::ConfigError;
+use crate::datapath::format::Format;
 use serde::{Deserialize, Serialize};
 
 /// The `[datapath]` table. Unknown keys are errors.
@@ -22,17 +23,6 @@ pub struct DatapathConfig {
     /// Margin, in coordinate LSBs, by which the host's cell table lists a patch in cells it
     /// comes near (the datapath's hit point may lie a few LSBs off the quantized polygon).
     pub cell_margin_lsb: u32,
-}
-
-/// The paper machine's configuration file, built in: the one source of the defaults.
-pub const PAPER_TOML: &str = include_str!("../configs/paper.toml");
-
-impl Default for DatapathConfig {
-    /// The `[datapath]` of hw/configs/paper.toml, sized for the unit cube (see the bits
-    /// chart, docs/figures/bits-scene2.svg).
-    fn default() -> Self {
-        DatapathConfig::from_toml_str(PAPER_TOML).expect("hw/configs/paper.toml is valid")
-    }
 }
 
 /// The formats of every register and intermediate value of the datapath, derived from a
@@ -61,35 +51,13 @@ pub struct Formats {
     pub word_bits: u32,
 }
 
-/// A configuration value that cannot work.
-#[derive(Debug, thiserror::Error, PartialEq, Eq)]
-#[error("{key}: {what}")]
-pub struct ConfigError {
-    pub key: String,
-    pub what: String,
-}
-
 impl DatapathConfig {
-    /// Parses the `[datapath]` table of a TOML text (other tables are ignored here).
+    /// The `[datapath]` table of a whole configuration file, through the one parser
+    /// ([`MachineConfig::from_toml_str`](super::MachineConfig::from_toml_str)).
+    ///
+    /// Kept until the host's loader moves; remove.
     pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
-        #[derive(Deserialize)]
-        struct File {
-            datapath: Option<toml::Value>,
-        }
-        let file: File = toml::from_str(text).map_err(|e| ConfigError {
-            key: "toml".into(),
-            what: e.to_string(),
-        })?;
-        let table = file.datapath.ok_or_else(|| ConfigError {
-            key: "[datapath]".into(),
-            what: "missing table".into(),
-        })?;
-        let cfg: DatapathConfig = table.try_into().map_err(|e: toml::de::Error| ConfigError {
-            key: "[datapath]".into(),
-            what: e.message().to_string(),
-        })?;
-        cfg.formats()?;
-        Ok(cfg)
+        super::MachineConfig::from_toml_str(text).map(|c| c.datapath)
     }
 
     /// The derived formats; an error names the key that makes them impossible.
@@ -220,23 +188,30 @@ mod tests {
     use super::*;
 
     #[test]
-    fn default_formats_derive() {
-        let f = DatapathConfig::default().formats().unwrap();
+    fn paper_formats_derive() {
+        let f = super::super::paper().datapath.formats().unwrap();
         assert_eq!(f.coord, Format::new(2, 12));
         assert_eq!(f.edge, Format::new(8, 24));
         assert!(f.t_num.bits() < 127);
     }
 
+    /// A whole file whose `[datapath]` table is `datapath` (the other tables from paper.toml).
+    fn file(datapath: &str) -> String {
+        let head =
+            &super::super::PAPER_TOML[..super::super::PAPER_TOML.find("[datapath]").unwrap()];
+        format!("{head}[datapath]\n{datapath}")
+    }
+
     #[test]
     fn unknown_and_impossible_keys_are_errors() {
-        let e = DatapathConfig::from_toml_str("[datapath]\nfrac_bits = 20\n").unwrap_err();
+        let e = DatapathConfig::from_toml_str(&file("frac_bits = 20\n")).unwrap_err();
         assert!(e.what.contains("missing field"), "{e}");
-        let ok = "[datapath]\nfrac_bits = 20\ncoord_int_bits = 2\nt_frac_bits = 20\nt_int_bits = 3\nword_bits = 32\ncell_margin_lsb = 4\n";
-        assert!(DatapathConfig::from_toml_str(ok).is_ok());
-        let e = DatapathConfig::from_toml_str(&format!("{ok}colour = 1\n")).unwrap_err();
+        let ok = "frac_bits = 20\ncoord_int_bits = 2\nt_frac_bits = 20\nt_int_bits = 3\nword_bits = 32\ncell_margin_lsb = 4\n";
+        assert!(DatapathConfig::from_toml_str(&file(ok)).is_ok());
+        let e = DatapathConfig::from_toml_str(&file(&format!("{ok}colour = 1\n"))).unwrap_err();
         assert!(e.what.contains("unknown field"), "{e}");
-        let e =
-            DatapathConfig::from_toml_str(&ok.replace("= 20\ncoord", "= 99\ncoord")).unwrap_err();
+        let e = DatapathConfig::from_toml_str(&file(&ok.replace("= 20\ncoord", "= 99\ncoord")))
+            .unwrap_err();
         assert_eq!(e.key, "frac_bits");
     }
 }

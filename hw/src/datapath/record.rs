@@ -10,7 +10,7 @@
 //! per id.
 
 use crate::config::Formats;
-use crate::format::round_div;
+use crate::datapath::format::round_div;
 use bitvec::prelude::*;
 
 /// Bits of a patch id.
@@ -280,11 +280,10 @@ impl CellTable {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::DatapathConfig;
 
     #[test]
     fn records_round_trip_through_memory_words() {
-        let f = DatapathConfig::default().formats().unwrap();
+        let f = crate::config::paper().datapath.formats().unwrap();
         let p = PatchRecord {
             id: 0xABCDE,
             n_verts: 3,
@@ -308,7 +307,7 @@ mod tests {
 
     #[test]
     fn shear_factors_are_rounded_quotients() {
-        let f = DatapathConfig::default().formats().unwrap();
+        let f = crate::config::paper().datapath.formats().unwrap();
         let one = 1i64 << f.dir.frac_bits;
         let r = RayRecord::new(0, [0; 3], [one / 2, -one / 4, one], &f);
         assert_eq!((r.kx, r.ky, r.kz), (0, 1, 2));

@@ -5,10 +5,10 @@
 //! leave (its CTU's result link is full): back-pressure, never a lost result.
 
 use crate::config::Formats;
+use crate::datapath::record::{PatchRecord, RayRecord};
 use crate::datapath::{self, Edges, Exceptions, Interpolated, RaySpace, Translated};
-use crate::link::Link;
+use crate::link::{Link, UnitId};
 use crate::msg::{Job, JobResult, RemoteResult};
-use crate::record::{PatchRecord, RayRecord};
 
 /// What a stage register holds besides the job.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -162,6 +162,7 @@ impl Icu {
             remote,
         } = io;
         let cluster = *cluster;
+        let me = UnitId::Icu(cluster as usize);
         let n = self.slots.len();
         self.stats.stage_cycles += n as u64;
         if self.count == 0 && input.peek().is_none() {
@@ -190,13 +191,16 @@ impl Icu {
                 t,
             };
             if local {
-                results[reg.job.ctu as usize].push(r);
+                results[reg.job.ctu as usize].push(me, r);
             } else {
-                remote.push(RemoteResult {
-                    owner: reg.job.owner,
-                    ctu: reg.job.ctu,
-                    result: r,
-                });
+                remote.push(
+                    me,
+                    RemoteResult {
+                        owner: reg.job.owner,
+                        ctu: reg.job.ctu,
+                        result: r,
+                    },
+                );
                 self.stats.remote_results_out += 1;
             }
             self.stats.results_out += 1;
@@ -225,7 +229,7 @@ impl Icu {
         }
         self.base = last;
         if input.peek().is_some() {
-            let job = input.pop();
+            let job = input.pop(me);
             let t = datapath::translate(
                 &rays[job.ray as usize],
                 &patches[job.patch as usize],
@@ -246,5 +250,112 @@ impl Icu {
         } else {
             self.stats.idle_cycles += 1;
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn records() -> (Vec<RayRecord>, Vec<PatchRecord>, Formats) {
+        let f = crate::config::paper().datapath.formats().unwrap();
+        let rays = (0..4)
+            .map(|i| RayRecord::new(i, [32 + 16 * i as i64, 128, 128], [4096, 0, 0], &f))
+            .collect();
+        // A quad in the plane x = 512 that the rays cross (y, z in 0..256).
+        let v = [[512, 0, 0], [512, 256, 0], [512, 256, 256], [512, 0, 256]];
+        let patches = vec![PatchRecord {
+            id: 0,
+            n_verts: 4,
+            v,
+        }];
+        (rays, patches, f)
+    }
+
+    #[test]
+    fn back_pressure_never_loses_a_result_and_keeps_order() {
+        let (rays, patches, f) = records();
+        let mut icu = Icu::new(4);
+        let mut input: Link<Job> = Link::new(2).wired(UnitId::RayBuffer(0), UnitId::Icu(0));
+        let mut results: Vec<Link<JobResult>> =
+            vec![Link::new(2).wired(UnitId::Icu(0), UnitId::Ctu(0, 0))];
+        let mut remote: Link<RemoteResult> = Link::new(2);
+        let n = 24u32;
+        let (mut sent, mut got) = (0u32, vec![]);
+        for cycle in 0..400 {
+            if sent < n && input.can_push() {
+                let job = Job {
+                    ray: sent % 4,
+                    slot: sent,
+                    patch: 0,
+                    ctu: 0,
+                    owner: 0,
+                };
+                input.push(UnitId::RayBuffer(0), job);
+                sent += 1;
+            }
+            let mut io = IcuPorts {
+                cluster: 0,
+                input: &mut input,
+                results: &mut results,
+                remote: &mut remote,
+            };
+            icu.tick(&mut io, &rays, &patches, &f);
+            // The CTU holds its result link not-ready for 150 cycles, then takes one result
+            // every third cycle.
+            if cycle >= 150 && cycle % 3 == 0 && results[0].peek().is_some() {
+                got.push(results[0].pop(UnitId::Ctu(0, 0)));
+            }
+            input.commit();
+            results[0].commit();
+            remote.commit();
+        }
+        assert_eq!(
+            got.iter().map(|r| r.slot).collect::<Vec<_>>(),
+            (0..n).collect::<Vec<_>>()
+        );
+        assert!(icu.is_empty());
+        assert!(icu.stats.stalled_cycles > 100, "{:?}", icu.stats);
+        assert_eq!(icu.stats.results_out, n as u64);
+    }
+
+    #[test]
+    fn another_clusters_job_goes_home_over_the_remote_link() {
+        let (rays, patches, f) = records();
+        let mut icu = Icu::new(4);
+        let mut input: Link<Job> = Link::new(2);
+        let mut results: Vec<Link<JobResult>> = vec![Link::new(2)];
+        let mut remote: Link<RemoteResult> = Link::new(2);
+        input.push(
+            UnitId::RayBuffer(0),
+            Job {
+                ray: 1,
+                slot: 5,
+                patch: 0,
+                ctu: 1,
+                owner: 3,
+            },
+        );
+        input.commit();
+        let mut out = None;
+        for _ in 0..20 {
+            let mut io = IcuPorts {
+                cluster: 0,
+                input: &mut input,
+                results: &mut results,
+                remote: &mut remote,
+            };
+            icu.tick(&mut io, &rays, &patches, &f);
+            input.commit();
+            results[0].commit();
+            remote.commit();
+            if remote.peek().is_some() {
+                out = Some(remote.pop(UnitId::Balancer));
+            }
+        }
+        let r = out.expect("the result left");
+        assert_eq!((r.owner, r.ctu, r.result.slot), (3, 1, 5));
+        assert!(results[0].is_empty() && results[0].transfers == 0);
+        assert_eq!(icu.stats.remote_results_out, 1);
     }
 }

@@ -4,7 +4,7 @@
 //! input is favoured when room runs short. Told to by the balancer, it splits a work-item off
 //! the back of its queue for a starving cluster.
 
-use crate::link::Link;
+use crate::link::{Link, UnitId};
 use crate::msg::{Job, SplitOrder, WorkItem};
 
 /// Ray-buffer counters.
@@ -49,25 +49,29 @@ impl RayBuffer {
         orders: &mut Link<SplitOrder>,
         out: &mut Link<WorkItem>,
     ) {
+        let me = UnitId::RayBuffer(cluster as usize);
         let occ = self.queue.len() as u64;
         self.stats.occupancy_sum += occ;
         self.stats.max_occupancy = self.stats.max_occupancy.max(occ);
         if orders.peek().is_some() && out.can_push() {
-            let o = orders.pop();
+            let o = orders.pop(me);
             let k = (o.jobs as usize).min(self.queue.len().saturating_sub(1));
             // Always answer: an empty work-item tells the balancer there was nothing to give.
             let jobs = if k > 0 {
-                self.queue.take_back(k)
+                self.queue.take_back(me, k)
             } else {
                 Vec::new()
             };
             self.stats.work_items_given += (k > 0) as u64;
             self.stats.jobs_given += k as u64;
-            out.push(WorkItem {
-                from: cluster,
-                to: o.thief,
-                jobs,
-            });
+            out.push(
+                me,
+                WorkItem {
+                    from: cluster,
+                    to: o.thief,
+                    jobs,
+                },
+            );
         }
         // Inputs 0..K are the CTUs, K the network.
         let n = inputs.len() + 1;
@@ -85,11 +89,94 @@ impl RayBuffer {
                 &mut *from_network
             };
             if link.peek().is_some() {
-                let job = link.pop();
-                self.queue.push(job);
+                let job = link.pop(me);
+                self.queue.push(me, job);
                 self.stats.jobs_in += 1;
                 self.next = (i + 1) % n;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn job(ray: u32) -> Job {
+        Job {
+            ray,
+            slot: ray,
+            patch: 0,
+            ctu: 0,
+            owner: 0,
+        }
+    }
+
+    /// A buffer holding jobs 0..n (CTU 0's link fed them in).
+    fn filled(n: u32) -> (RayBuffer, Vec<Link<Job>>) {
+        let mut b = RayBuffer::new(16, 2);
+        let mut inputs = vec![Link::new(2)];
+        let mut net = Link::new(2);
+        let mut orders = Link::new(1);
+        let mut out = Link::new(1);
+        for r in 0..n {
+            inputs[0].push(UnitId::Ctu(0, 0), job(r));
+            inputs[0].commit();
+            b.tick(0, &mut inputs, &mut net, &mut orders, &mut out);
+            inputs[0].commit();
+            b.queue.commit();
+        }
+        assert_eq!(b.queue.len(), n as usize);
+        (b, inputs)
+    }
+
+    fn split(b: &mut RayBuffer, inputs: &mut [Link<Job>], jobs: u32, icu_pops: bool) -> WorkItem {
+        let mut net = Link::new(2);
+        let mut orders = Link::new(1);
+        let mut out = Link::new(1);
+        orders.push(UnitId::Balancer, SplitOrder { thief: 1, jobs });
+        orders.commit();
+        if icu_pops {
+            b.queue.pop(UnitId::Icu(0));
+        }
+        b.tick(0, inputs, &mut net, &mut orders, &mut out);
+        b.queue.commit();
+        out.commit();
+        out.pop(UnitId::Balancer)
+    }
+
+    #[test]
+    fn a_split_takes_jobs_from_the_back() {
+        let (mut b, mut inputs) = filled(5);
+        let w = split(&mut b, &mut inputs, 3, false);
+        assert_eq!(
+            w.jobs.iter().map(|j| j.ray).collect::<Vec<_>>(),
+            vec![2, 3, 4]
+        );
+        assert_eq!((w.from, w.to), (0, 1));
+        assert_eq!(b.queue.len(), 2);
+        assert_eq!(b.queue.peek().map(|j| j.ray), Some(0));
+    }
+
+    #[test]
+    fn a_split_never_takes_the_front_job_even_while_the_icu_pops_it() {
+        let (mut b, mut inputs) = filled(4);
+        let w = split(&mut b, &mut inputs, 100, true);
+        // At most len − 1: job 0 went to the ICU this cycle, jobs 1..4 to the thief.
+        assert_eq!(
+            w.jobs.iter().map(|j| j.ray).collect::<Vec<_>>(),
+            vec![1, 2, 3]
+        );
+        assert!(b.queue.is_empty());
+        assert_eq!(b.stats.jobs_given, 3);
+    }
+
+    #[test]
+    fn a_split_of_a_single_job_answers_empty() {
+        let (mut b, mut inputs) = filled(1);
+        let w = split(&mut b, &mut inputs, 4, false);
+        assert!(w.jobs.is_empty());
+        assert_eq!(b.queue.len(), 1);
+        assert_eq!(b.stats.work_items_given, 0);
     }
 }

@@ -1,0 +1,160 @@
+//! The machine's configuration: one TOML parse of hw/configs/*.toml into one typed, validated
+//! value — the `[machine]` and `[balance]` tables (machine.rs) and the `[datapath]` formats
+//! (datapath.rs). `PAPER_TOML`, the paper machine's file, is the one built-in configuration.
+
+pub mod datapath;
+pub mod machine;
+
+pub use datapath::{DatapathConfig, Formats, HardwareCost};
+pub use machine::{ArbiterPolicy, BalanceTable, MachineTable, VictimPolicy};
+
+use serde::{Deserialize, Serialize};
+
+/// The paper machine's configuration file, built in: the one source of the defaults.
+pub const PAPER_TOML: &str = include_str!("../../configs/paper.toml");
+
+/// The paper machine's configuration (hw/configs/paper.toml, built in). It is valid — a
+/// test parses it — so this never panics in practice.
+pub fn paper() -> MachineConfig {
+    MachineConfig::from_toml_str(PAPER_TOML).expect("hw/configs/paper.toml is valid")
+}
+
+/// A configuration value that cannot work. `key` names the table and key
+/// (`machine.shell_radius`), or for a TOML syntax or type error the place (`line L, column C`).
+#[derive(Debug, thiserror::Error, PartialEq, Eq)]
+#[error("{key}: {what}")]
+pub struct ConfigError {
+    pub key: String,
+    pub what: String,
+}
+
+/// A whole machine configuration file. Every table is required; unknown keys are errors.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MachineConfig {
+    pub machine: MachineTable,
+    pub balance: BalanceTable,
+    pub datapath: DatapathConfig,
+}
+
+impl MachineConfig {
+    /// Parses and validates a configuration file's text: the one parser of hw/configs/*.toml.
+    pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
+        let cfg: MachineConfig = toml::from_str(text).map_err(|e| ConfigError {
+            key: e
+                .span()
+                .map(|s| line_column(text, s.start))
+                .unwrap_or_else(|| "toml".into()),
+            what: e.message().to_string(),
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Checks every value; the error names the key.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let f = self.datapath.formats()?;
+        self.machine.validate(f.t)?;
+        self.balance.validate(self.machine.ray_buffer_capacity)
+    }
+
+    /// The shell radius, t format raw (validated: it fits and is at least one LSB).
+    pub fn shell_raw(&self) -> Result<i64, ConfigError> {
+        self.machine.shell_raw(self.datapath.formats()?.t)
+    }
+
+    /// Divider stages: the t format's bits over the bits per stage.
+    pub fn divider_stages(&self) -> u32 {
+        let f = self.datapath.formats().expect("validated");
+        f.t.bits().div_ceil(self.machine.divider_bits_per_stage)
+    }
+
+    /// ICU pipeline depth: translate, shear, edges, interpolate, the divider's stages, compare.
+    pub fn pipeline_depth(&self) -> u32 {
+        4 + self.divider_stages() + 1
+    }
+}
+
+/// "line L, column C" (both from 1, columns in characters) of byte offset `at` in `text`.
+fn line_column(text: &str, at: usize) -> String {
+    let mut at = at.min(text.len());
+    while !text.is_char_boundary(at) {
+        at -= 1;
+    }
+    let before = &text[..at];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+    format!("line {line}, column {column}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn paper_and_small_parse() {
+        let p = paper();
+        assert_eq!(p.machine.cell_size, 0.05);
+        assert!(p.balance.enabled);
+        let s = MachineConfig::from_toml_str(include_str!("../../configs/small.toml")).unwrap();
+        assert_eq!(s.machine.cell_size, 0.05);
+        assert_eq!(s.datapath, p.datapath);
+    }
+
+    #[test]
+    fn a_syntax_error_names_line_and_column() {
+        let text = PAPER_TOML.replace("clusters = 4 ", "clusters = = 4 ");
+        let e = MachineConfig::from_toml_str(&text).unwrap_err();
+        let line = PAPER_TOML
+            .lines()
+            .position(|l| l.starts_with("clusters = 4"))
+            .unwrap()
+            + 1;
+        assert!(e.key.starts_with(&format!("line {line}, column ")), "{e:?}");
+        assert!(!e.key.contains("bytes"), "{e:?}");
+    }
+
+    #[test]
+    fn line_column_counts_from_one() {
+        assert_eq!(line_column("ab\ncd", 0), "line 1, column 1");
+        assert_eq!(line_column("ab\ncd", 4), "line 2, column 2");
+        assert_eq!(line_column("é\nx", 3), "line 2, column 1");
+    }
+
+    #[test]
+    fn a_missing_balance_table_is_an_error() {
+        let i = PAPER_TOML.find("[balance]").unwrap();
+        let j = PAPER_TOML.find("[datapath]").unwrap();
+        let text = format!("{}{}", &PAPER_TOML[..i], &PAPER_TOML[j..]);
+        let e = MachineConfig::from_toml_str(&text).unwrap_err();
+        assert!(e.what.contains("balance"), "{e:?}");
+    }
+
+    fn with_radius(r: &str) -> Result<MachineConfig, ConfigError> {
+        MachineConfig::from_toml_str(
+            &PAPER_TOML.replace("shell_radius = 0.289", &format!("shell_radius = {r}")),
+        )
+    }
+
+    #[test]
+    fn a_shell_radius_beyond_the_t_format_is_an_error_not_a_clamp() {
+        // paper.toml's t is Q3.12: [-4, 4).
+        let e = with_radius("4.5").unwrap_err();
+        assert_eq!(e.key, "machine.shell_radius", "{e:?}");
+        let e = with_radius("1e-9").unwrap_err();
+        assert_eq!(e.key, "machine.shell_radius", "{e:?}");
+        let e = with_radius("-1.0").unwrap_err();
+        assert_eq!(e.key, "machine.shell_radius", "{e:?}");
+        let c = with_radius("0.289").unwrap();
+        assert_eq!(c.shell_raw().unwrap(), (0.289f64 * 4096.0).round() as i64);
+    }
+
+    #[test]
+    fn a_bad_cell_size_is_an_error() {
+        for v in ["0.0", "-0.05", "nan", "inf"] {
+            let text = PAPER_TOML.replace("cell_size = 0.05", &format!("cell_size = {v}"));
+            let e = MachineConfig::from_toml_str(&text).unwrap_err();
+            assert_eq!(e.key, "machine.cell_size", "{v}: {e:?}");
+        }
+    }
+}

@@ -1,0 +1,56 @@
+//! The cycle jump: when every link and pipeline is empty and every unit waits on a timer, the
+//! clock moves to the earliest timer and each unit accounts the skipped cycles.
+
+use super::Machine;
+
+impl Machine<'_> {
+    /// The cycle the clock may jump to from `now`: every link empty, every ICU empty, every
+    /// CTU quiet, and a timer ahead. `None` when something can act at `now`.
+    pub(super) fn quiet_until(&self, now: u64) -> Option<u64> {
+        let links_empty = self.links.all_empty() && self.clusters.iter().all(|c| c.is_empty());
+        let balancer_acts = self.cfg.balance.enabled
+            && (self.balancer.due(now)
+                || (0..self.clusters.len()).any(|c| {
+                    self.balancer.would_request(
+                        c,
+                        self.clusters[c].ray_buffer.queue.len(),
+                        self.links.net_in[c].is_empty(),
+                    )
+                }));
+        if !links_empty
+            || balancer_acts
+            || !self
+                .clusters
+                .iter()
+                .flat_map(|c| &c.ctus)
+                .all(|c| c.quiet(now))
+        {
+            return None;
+        }
+        let mut t = self.memory.timer(now);
+        if let Some(x) = self.balancer.timer(now) {
+            t = Some(t.map_or(x, |y: u64| y.min(x)));
+        }
+        for c in self.clusters.iter().flat_map(|c| &c.ctus) {
+            if let Some(x) = c.timer(now) {
+                t = Some(t.map_or(x, |y: u64| y.min(x)));
+            }
+        }
+        // Only a jump of at least one cycle is worth it; a pending delivery acts at once.
+        t.filter(|&t| t > now + 1 && self.memory.inflight_ready(now).is_none())
+    }
+
+    /// Accounts `n` skipped cycles in every unit.
+    pub(super) fn skip(&mut self, n: u64) {
+        let now = self.cycle;
+        self.memory.skip(now, n);
+        for cl in &mut self.clusters {
+            cl.icu.skip(n);
+            for c in &mut cl.ctus {
+                c.skip(n);
+            }
+        }
+        self.last_progress_cycle += n;
+        self.skipped_cycles += n;
+    }
+}

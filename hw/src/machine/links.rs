@@ -1,0 +1,208 @@
+//! Every link of the machine, in one table: its message, how many there are, its capacity,
+//! its producer and consumer (wired once, checked on every push and pop — rule 7 of `link`),
+//! and where the waveform shows it. `commit_all`, `all_empty`, `probe` and the wiring are
+//! generated from the table, so adding a link touches this table and nothing else.
+//!
+//! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
+//! own state, not links of this table; `Cluster::commit` clocks them.
+
+use crate::config::MachineTable;
+use crate::link::{Link, UnitId};
+use crate::msg::{Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};
+use crate::trace::Probe;
+
+/// Where a link family appears in the waveform (the probe calls it at that point, so the
+/// signal order of every waveform stays as it is).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Section {
+    /// After the arbiter's signals: every link of the family.
+    Arbiter,
+    /// In cluster c's balance scope (balancing on only).
+    Balance(usize),
+    /// After CTU (c, j)'s signals.
+    Ctu(usize, usize),
+    /// Not shown.
+    Hidden,
+}
+
+/// How many links a family has and how index `i` maps to (cluster, CTU).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Shape {
+    /// One per CTU, cluster-major: i = c·k + j.
+    PerCtu,
+    /// One per cluster: i = c (j = 0).
+    PerCluster,
+}
+
+macro_rules! links {
+    ($(
+        $(#[doc = $doc:literal])*
+        $name:ident: $t:ty, $shape:ident,
+            capacity $cap:expr,
+            $from:expr => $to:expr,
+            probe $section:expr,
+            scope $scope:expr;
+    )*) => {
+        /// Every link of the machine (see the table in machine/links.rs).
+        #[derive(Clone, Debug)]
+        pub struct Links {
+            $( $(#[doc = $doc])* pub $name: Vec<Link<$t>>, )*
+            /// CTUs per cluster.
+            k: usize,
+            /// Waveform scope of each link, per family (built once).
+            scopes: Scopes,
+        }
+
+        #[derive(Clone, Debug, Default)]
+        struct Scopes {
+            $( $name: Vec<String>, )*
+        }
+
+        impl Links {
+            /// Every link, wired, for the machine `m`.
+            pub fn new(m: &MachineTable) -> Self {
+                let nc = m.clusters as usize;
+                let k = m.ctus_per_cluster as usize;
+                let ends = |shape: Shape| -> Vec<(usize, usize)> {
+                    match shape {
+                        Shape::PerCtu => (0..nc * k).map(|i| (i / k, i % k)).collect(),
+                        Shape::PerCluster => (0..nc).map(|c| (c, 0)).collect(),
+                    }
+                };
+                let mut scopes = Scopes::default();
+                $(
+                    let cap: fn(&MachineTable) -> usize = $cap;
+                    let from: fn(usize, usize) -> UnitId = $from;
+                    let to: fn(usize, usize) -> UnitId = $to;
+                    let scope: fn(usize, usize) -> String = $scope;
+                    let at = ends(Shape::$shape);
+                    scopes.$name = at.iter().map(|&(c, j)| scope(c, j)).collect();
+                    let $name: Vec<Link<$t>> = at
+                        .iter()
+                        .map(|&(c, j)| Link::new(cap(m)).wired(from(c, j), to(c, j)))
+                        .collect();
+                )*
+                Links { $( $name, )* k, scopes }
+            }
+
+            /// The clock edge of every link.
+            pub fn commit_all(&mut self) {
+                $( for l in &mut self.$name { l.commit(); } )*
+            }
+
+            /// True when every link is empty.
+            pub fn all_empty(&self) -> bool {
+                true $( && self.$name.iter().all(Link::is_empty) )*
+            }
+
+            /// Reports the links of `section` to `p`, family by family in table order.
+            pub fn probe(&self, p: &mut dyn Probe, section: Section) {
+                $(
+                    let want: Section = $section;
+                    let shape = Shape::$shape;
+                    match (want, section) {
+                        (Section::Arbiter, Section::Arbiter) => {
+                            for (l, s) in self.$name.iter().zip(&self.scopes.$name) {
+                                probe_link(p, s, l);
+                            }
+                        }
+                        (Section::Balance(_), Section::Balance(c)) => {
+                            let i = self.index(shape, c, 0);
+                            probe_link(p, &self.scopes.$name[i], &self.$name[i]);
+                        }
+                        (Section::Ctu(..), Section::Ctu(c, j)) => {
+                            let i = self.index(shape, c, j);
+                            probe_link(p, &self.scopes.$name[i], &self.$name[i]);
+                        }
+                        _ => {}
+                    }
+                )*
+            }
+        }
+    };
+}
+
+links! {
+    /// CTU (c, j) → the memory's arbiter: patch-load requests.
+    requests: MemRequest, PerCtu,
+        capacity |m| m.request_queue_capacity as usize,
+        |c, j| UnitId::Ctu(c, j) => |_, _| UnitId::Memory,
+        probe Section::Arbiter,
+        scope |c, j| format!("machine.memory.arbiter.req_{c}_{j}");
+    /// CTU (c, j) → ray buffer c: jobs (a skid buffer).
+    jobs: Job, PerCtu,
+        capacity |_| 2,
+        |c, j| UnitId::Ctu(c, j) => |c, _| UnitId::RayBuffer(c),
+        probe Section::Ctu(0, 0),
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.jobs");
+    /// ICU c → CTU (c, j): results of its own jobs.
+    results: JobResult, PerCtu,
+        capacity |_| 2,
+        |c, _| UnitId::Icu(c) => |c, j| UnitId::Ctu(c, j),
+        probe Section::Ctu(0, 0),
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.results");
+    /// Patch buffer c → CTU (c, j): arrived patch records.
+    arrivals: crate::msg::PatchArrival, PerCtu,
+        capacity |_| 2,
+        |c, _| UnitId::PatchBuffer(c) => |c, j| UnitId::Ctu(c, j),
+        probe Section::Ctu(0, 0),
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.arrivals");
+    /// Balancer → ray buffer c: split orders.
+    orders: SplitOrder, PerCluster,
+        capacity |_| 1,
+        |_, _| UnitId::Balancer => |c, _| UnitId::RayBuffer(c),
+        probe Section::Balance(0),
+        scope |c, _| format!("machine.cluster_{c}.balance.split_order");
+    /// Ray buffer c → balancer: work-items split off.
+    items: WorkItem, PerCluster,
+        capacity |_| 1,
+        |c, _| UnitId::RayBuffer(c) => |_, _| UnitId::Balancer,
+        probe Section::Balance(0),
+        scope |c, _| format!("machine.cluster_{c}.balance.work_item");
+    /// Balancer → ray buffer c: jobs arriving over the inter-cluster link.
+    net_in: Job, PerCluster,
+        capacity |_| 2,
+        |_, _| UnitId::Balancer => |c, _| UnitId::RayBuffer(c),
+        probe Section::Balance(0),
+        scope |c, _| format!("machine.cluster_{c}.balance.net_in");
+    /// ICU c → balancer: results of other clusters' jobs.
+    remote_out: RemoteResult, PerCluster,
+        capacity |_| 2,
+        |c, _| UnitId::Icu(c) => |_, _| UnitId::Balancer,
+        probe Section::Balance(0),
+        scope |c, _| format!("machine.cluster_{c}.balance.remote_out");
+    /// Balancer → CTU (c, j): results of its jobs computed elsewhere.
+    remote_in: JobResult, PerCtu,
+        capacity |_| 2,
+        |_, _| UnitId::Balancer => |c, j| UnitId::Ctu(c, j),
+        probe Section::Hidden,
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.remote_in");
+}
+
+impl Links {
+    /// The index in a family of `shape` of the link at (cluster `c`, CTU `j`).
+    fn index(&self, shape: Shape, c: usize, j: usize) -> usize {
+        match shape {
+            Shape::PerCtu => c * self.k + j,
+            Shape::PerCluster => c,
+        }
+    }
+
+    /// CTUs per cluster (per-CTU families are cluster-major: `c * k + j`).
+    pub fn ctus_per_cluster(&self) -> usize {
+        self.k
+    }
+
+    /// Cluster `c`'s slice of a per-CTU family.
+    pub fn of_cluster<T>(family: &mut [Link<T>], k: usize, c: usize) -> &mut [Link<T>] {
+        &mut family[c * k..(c + 1) * k]
+    }
+}
+
+/// Reports a link's registered valid, ready, occupancy and transfer count.
+pub fn probe_link<T: Clone>(p: &mut dyn Probe, scope: &str, l: &Link<T>) {
+    p.bits(scope, "valid", 1, l.valid() as u64);
+    p.bits(scope, "ready", 1, l.ready() as u64);
+    p.bits(scope, "occupancy", 16, l.len() as u64);
+    p.bits(scope, "transfers", 32, l.transfers);
+}

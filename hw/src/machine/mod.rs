@@ -1,0 +1,213 @@
+//! The machine: clusters, the global memory with its arbiter, the balancer, and every link
+//! between them (links.rs), stepped cycle by cycle (tick.rs), with the cycle jump (jump.rs),
+//! the watchdog (watchdog.rs) and the waveform probes (probe.rs).
+//!
+//! **Invariant:** a cycle ticks every unit once, in any order, then commits every link. Units
+//! read only their own state and registered link state (see `link`), so the order cannot
+//! change any result — `TickOrder` lets a test try another.
+//!
+//! The cycle jump: when no unit can act before some timer (a DDA step, the memory's port or
+//! latency) and every link is empty, the clock moves straight to the earliest timer; each unit
+//! accounts the skipped cycles as it would have spent them. Results and waveforms are the
+//! same with or without it.
+
+mod jump;
+pub mod links;
+mod probe;
+mod tick;
+mod watchdog;
+
+pub use links::Links;
+pub use watchdog::Deadlock;
+
+use crate::config::MachineConfig;
+use crate::datapath::model::FixedScene;
+use crate::datapath::record::{RayRecord, RecordSizes};
+use crate::datapath::{Exceptions, FixedHit};
+use crate::link::UnitId;
+use crate::trace::Probe;
+use crate::units::balancer::Balancer;
+use crate::units::cluster::Cluster;
+use crate::units::ctu::{Ctu, CtuParams};
+use crate::units::icu::Icu;
+use crate::units::memory::Memory;
+use crate::units::patch_buffer::PatchBuffer;
+use crate::units::ray_buffer::RayBuffer;
+
+/// The order units are ticked in within a cycle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TickOrder {
+    Forward,
+    Reverse,
+    /// A fixed pseudo-random permutation from this seed, new every cycle.
+    Shuffled(u64),
+}
+
+/// The machine.
+pub struct Machine<'a> {
+    pub cfg: MachineConfig,
+    scene: &'a FixedScene,
+    rays: &'a [RayRecord],
+    pub clusters: Vec<Cluster>,
+    pub memory: Memory,
+    /// Dynamic balancing: the balancer.
+    pub balancer: Balancer,
+    /// Every link between units.
+    pub links: Links,
+    /// The balancer's view of each ray buffer's registered occupancy (reused every cycle).
+    occupancy: Vec<usize>,
+    pub cycle: u64,
+    /// The units in forward tick order (computed once).
+    order: Vec<UnitId>,
+    /// This cycle's tick order: `order` copied and permuted in place (no allocation per
+    /// cycle; its capacity is `order.len()`).
+    scratch: Vec<UnitId>,
+    /// Scope names for probes, built on the first probe.
+    scopes: Option<probe::Scopes>,
+    /// Cycles the clock jumped over (not in the statistics, which must not depend on it).
+    pub skipped_cycles: u64,
+    progress: u64,
+    last_progress_cycle: u64,
+}
+
+impl<'a> Machine<'a> {
+    /// A machine for `sectors[cluster][ctu]` = the sector's ray ids (ascending), casting from
+    /// patch `source` (excluded from every sector's loads).
+    pub fn new(
+        cfg: MachineConfig,
+        scene: &'a FixedScene,
+        rays: &'a [RayRecord],
+        sectors: &[Vec<Vec<u32>>],
+        source: u32,
+    ) -> Self {
+        let f = &scene.formats;
+        let k = cfg.machine.ctus_per_cluster as usize;
+        assert_eq!(
+            sectors.len(),
+            cfg.machine.clusters as usize,
+            "one section per cluster"
+        );
+        // Quantized once by the configuration; a radius that does not fit is a config error.
+        let shell_raw = cfg
+            .shell_raw()
+            .unwrap_or_else(|e| panic!("an unvalidated machine configuration: {e}"));
+        let clusters: Vec<Cluster> = sectors
+            .iter()
+            .enumerate()
+            .map(|(c, secs)| {
+                assert_eq!(secs.len(), k, "one sector per CTU");
+                let ctus = secs
+                    .iter()
+                    .enumerate()
+                    .map(|(j, r)| {
+                        let p = CtuParams {
+                            cluster: c as u16,
+                            local: j as u16,
+                            source,
+                            dda_cycles_per_step: cfg.machine.dda_cycles_per_step,
+                            subshell_max_patches: cfg.machine.subshell_max_patches,
+                            shell_raw,
+                            t_frac: f.t.frac_bits,
+                            t_max: f.t.max_raw() as i64,
+                        };
+                        Ctu::new(p, r, rays, &scene.cells, scene.patches.len())
+                    })
+                    .collect();
+                Cluster::new(
+                    ctus,
+                    Icu::new(cfg.divider_stages()),
+                    RayBuffer::new(cfg.machine.ray_buffer_capacity, k + 1),
+                    PatchBuffer::new(c, cfg.machine.patch_buffer_capacity),
+                )
+            })
+            .collect();
+        let words = RecordSizes::of(f).patch_words;
+        let nc = clusters.len();
+        let mut order = vec![UnitId::Memory];
+        if cfg.balance.enabled {
+            order.push(UnitId::Balancer);
+        }
+        for c in 0..nc {
+            order.push(UnitId::PatchBuffer(c));
+            for j in 0..k {
+                order.push(UnitId::Ctu(c, j));
+            }
+            order.push(UnitId::RayBuffer(c));
+            order.push(UnitId::Icu(c));
+        }
+        Machine {
+            balancer: Balancer::new(cfg.balance, nc),
+            links: Links::new(&cfg.machine),
+            occupancy: vec![0; nc],
+            memory: Memory::new(cfg.machine.arbiter, cfg.machine.memory_latency, words, nc),
+            clusters,
+            cfg,
+            scene,
+            rays,
+            cycle: 0,
+            scratch: Vec::with_capacity(order.len()),
+            order,
+            scopes: None,
+            skipped_cycles: 0,
+            progress: 0,
+            last_progress_cycle: 0,
+        }
+    }
+
+    /// True when every sector is finished and nothing is in flight.
+    pub fn done(&self) -> bool {
+        self.clusters.iter().all(Cluster::drained)
+            && self.memory.inflight() == 0
+            && self.links.all_empty()
+            && self.balancer.idle()
+    }
+
+    /// Runs to the end; `probe` sees every unit's signals after every edge that changed them.
+    pub fn run(
+        &mut self,
+        order: TickOrder,
+        mut probe: Option<&mut dyn Probe>,
+    ) -> Result<(), Deadlock> {
+        loop {
+            self.tick(order);
+            if let Some(p) = probe.as_deref_mut() {
+                self.probe(p);
+            }
+            if self.done() {
+                self.cycle += 1;
+                return Ok(());
+            }
+            if self.cycle - self.last_progress_cycle > self.cfg.machine.watchdog_cycles {
+                return Err(self.deadlock());
+            }
+            self.cycle += 1;
+            if self.cfg.machine.cycle_jump {
+                if let Some(t) = self.quiet_until(self.cycle) {
+                    let n = t - self.cycle;
+                    self.skip(n);
+                    self.cycle = t;
+                }
+            }
+        }
+    }
+
+    /// Every ray's nearest hit, by ray id.
+    pub fn hits(&self) -> Vec<Option<FixedHit>> {
+        let mut out = vec![None; self.rays.len()];
+        for c in self.clusters.iter().flat_map(|c| &c.ctus) {
+            for (r, h) in c.hits() {
+                out[r as usize] = h;
+            }
+        }
+        out
+    }
+
+    /// Exceptions counted by all ICUs.
+    pub fn exceptions(&self) -> Exceptions {
+        let mut e = Exceptions::default();
+        for cl in &self.clusters {
+            e.add(&cl.icu.exceptions);
+        }
+        e
+    }
+}

@@ -1,0 +1,140 @@
+//! One clock cycle: tick every unit once in the chosen order, then the clock edge (every
+//! link and every unit's own store commits). No allocation: the order is permuted in a
+//! scratch vector of fixed capacity.
+
+use super::links::Links;
+use super::{Machine, TickOrder};
+use crate::link::UnitId;
+use crate::units::balancer::BalancerPorts;
+use crate::units::ctu::CtuPorts;
+use crate::units::icu::IcuPorts;
+
+impl Machine<'_> {
+    /// One clock cycle: tick every unit in `order`, then commit every link.
+    pub fn tick(&mut self, order: TickOrder) {
+        let now = self.cycle;
+        self.scratch.clear();
+        self.scratch.extend_from_slice(&self.order);
+        match order {
+            TickOrder::Forward => {}
+            TickOrder::Reverse => self.scratch.reverse(),
+            TickOrder::Shuffled(seed) => shuffle(
+                &mut self.scratch,
+                seed ^ now.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+            ),
+        }
+        for i in 0..self.scratch.len() {
+            let u = self.scratch[i];
+            self.tick_unit(u, now);
+        }
+        self.links.commit_all();
+        for cl in &mut self.clusters {
+            cl.commit();
+        }
+        // The watchdog samples progress every 64 cycles (its resolution).
+        if now.is_multiple_of(64) {
+            let p = self.activity();
+            if p != self.progress {
+                self.progress = p;
+                self.last_progress_cycle = now;
+            }
+        }
+    }
+
+    /// Ticks unit `u` at cycle `now`, handing it its ports.
+    fn tick_unit(&mut self, u: UnitId, now: u64) {
+        let k = self.cfg.machine.ctus_per_cluster as usize;
+        let l = &mut self.links;
+        match u {
+            UnitId::Memory => self
+                .memory
+                .tick(now, &mut l.requests, self.clusters.as_mut_slice()),
+            UnitId::Balancer => {
+                // Registered ray-buffer occupancies (committed state, same in any order).
+                for (o, cl) in self.occupancy.iter_mut().zip(&self.clusters) {
+                    *o = cl.ray_buffer.queue.len();
+                }
+                let mut io = BalancerPorts {
+                    occupancy: &self.occupancy,
+                    orders: &mut l.orders,
+                    items: &mut l.items,
+                    to_ray_buffers: &mut l.net_in,
+                    from_icus: &mut l.remote_out,
+                    to_ctus: &mut l.remote_in,
+                    ctus_per_cluster: k,
+                };
+                self.balancer.tick(now, &mut io);
+            }
+            UnitId::PatchBuffer(c) => {
+                let arrivals = Links::of_cluster(&mut l.arrivals, k, c);
+                self.clusters[c].patch_buffer.tick(arrivals);
+            }
+            UnitId::Ctu(c, j) => {
+                let i = c * k + j;
+                let mut io = CtuPorts {
+                    requests: &mut l.requests[i],
+                    arrivals: &mut l.arrivals[i],
+                    jobs: &mut l.jobs[i],
+                    results: &mut l.results[i],
+                    remote_results: &mut l.remote_in[i],
+                };
+                self.clusters[c].ctus[j].tick(now, &mut io, &self.scene.cells);
+            }
+            UnitId::RayBuffer(c) => {
+                self.clusters[c].ray_buffer.tick(
+                    c as u16,
+                    Links::of_cluster(&mut l.jobs, k, c),
+                    &mut l.net_in[c],
+                    &mut l.orders[c],
+                    &mut l.items[c],
+                );
+            }
+            UnitId::Icu(c) => {
+                let f = self.scene.formats;
+                let cl = &mut self.clusters[c];
+                let mut io = IcuPorts {
+                    cluster: c as u16,
+                    input: &mut cl.ray_buffer.queue,
+                    results: Links::of_cluster(&mut l.results, k, c),
+                    remote: &mut l.remote_out[c],
+                };
+                cl.icu.tick(&mut io, self.rays, &self.scene.patches, &f);
+            }
+        }
+    }
+
+    /// A number that grows whenever anything moves (transfers, steps, grants).
+    pub(super) fn activity(&self) -> u64 {
+        let mut a =
+            self.memory.stats.grants + self.links.requests.iter().map(|l| l.transfers).sum::<u64>();
+        a += self
+            .clusters
+            .iter()
+            .map(|c| c.patch_buffer.store.transfers)
+            .sum::<u64>();
+        a += self.balancer.stats.jobs_moved + self.balancer.stats.results_returned;
+        for cl in &self.clusters {
+            a += cl.icu.stats.jobs_in + cl.icu.stats.results_out;
+            for c in &cl.ctus {
+                a +=
+                    c.stats.dda_steps + c.stats.patch_requests + c.stats.shells + c.stats.subshells;
+            }
+        }
+        a
+    }
+}
+
+/// A deterministic Fisher–Yates shuffle (splitmix64).
+fn shuffle<T>(v: &mut [T], mut seed: u64) {
+    let mut next = || {
+        seed = seed.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = seed;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    };
+    for i in (1..v.len()).rev() {
+        let j = (next() % (i as u64 + 1)) as usize;
+        v.swap(i, j);
+    }
+}
