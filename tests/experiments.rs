@@ -12,7 +12,7 @@ use shellsim::experiment::{
     cli::{speedup_outputs, Which},
     Point, Workload,
 };
-use shellsim::run::{run, RunSpec};
+use shellsim::machine::run::{run, RunSpec};
 use shellsim_hw::machine::TickOrder;
 use shellsim_hw::machine_config::{ArbiterPolicy, MachineConfig, VictimPolicy};
 use std::path::Path;

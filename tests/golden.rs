@@ -6,12 +6,12 @@
 mod common;
 
 use serde_json::{json, Value};
-use shellsim::run::{run, RunSpec};
+use shellsim::machine::run::{run, RunSpec};
 use shellsim_hw::machine::TickOrder;
 use std::path::{Path, PathBuf};
 
 /// The figures a golden pins.
-fn key_figures(s: &shellsim::run::RunStats) -> Value {
+fn key_figures(s: &shellsim::machine::run::RunStats) -> Value {
     json!({
         "rays": s.rays,
         "cycles": s.cycles,

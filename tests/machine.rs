@@ -4,7 +4,7 @@
 
 mod common;
 
-use shellsim::run::{run, RunOutput, RunSpec};
+use shellsim::machine::run::{run, RunOutput, RunSpec};
 use shellsim_hw::machine::TickOrder;
 use shellsim_hw::machine_config::{ArbiterPolicy, MachineConfig};
 use std::path::Path;

@@ -30,5 +30,5 @@ pub fn load(name: &str) -> Scene {
 
 /// The unit cube's six walls facing inward: 0 floor (z=0), 1 ceiling, 2 x=0, 3 x=1, 4 y=0, 5 y=1.
 pub fn unit_cube() -> Scene {
-    shellsim::gen::unit_cube()
+    shellsim::scene::gen::unit_cube()
 }
