@@ -15,7 +15,7 @@ use std::path::Path;
 fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
-    let cfg = shellsim::cli::machine_config(None).unwrap();
+    let cfg = shellsim::config::machine(None).unwrap();
     let spec = RunSpec {
         source: 0,
         ratio: 1,

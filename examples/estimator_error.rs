@@ -4,8 +4,8 @@
 
 use glam::DVec3;
 use shellsim::reference::analytic;
-use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::cast::form_factors;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::tracer::Tracer;
 
 fn main() {

@@ -40,7 +40,9 @@ pub enum ConfigSource {
 impl ConfigSource {
     /// `File(p)` for `Some(p)`, else `BuiltIn`.
     pub fn from_path(path: Option<&Path>) -> ConfigSource {
-        path.map_or(ConfigSource::BuiltIn, |p| ConfigSource::File(p.to_path_buf()))
+        path.map_or(ConfigSource::BuiltIn, |p| {
+            ConfigSource::File(p.to_path_buf())
+        })
     }
 }
 
@@ -85,7 +87,9 @@ pub fn named(name: &str) -> Result<MachineConfig> {
             }
             tried.push(p.display().to_string());
         }
-        None => tried.push(format!("${CONFIG_DIR_VAR}/{file} (${CONFIG_DIR_VAR} is not set)")),
+        None => tried.push(format!(
+            "${CONFIG_DIR_VAR}/{file} (${CONFIG_DIR_VAR} is not set)"
+        )),
     }
     if let Some((n, text)) = BUILT_IN.iter().find(|(n, _)| *n == name) {
         return parse(text, &built_in_label(n));

@@ -1,7 +1,7 @@
 //! The paper's numbers in one place: Table 12.1 of Shen, Laarakker & Deprettere (1992) and
 //! the constants of its experiments (§12.3.2). The machine's own parameters (shell radius,
 //! subshell threshold, timing) live in the built-in configuration, hw/configs/paper.toml
-//! (see [`crate::config`]).
+//! (see the `config` module).
 
 /// The paper's low-resolution ray count (Table 12.1): 20 rings of Δθ = 4.5° plus the zenith.
 pub const PAPER_RAYS: usize = 969;

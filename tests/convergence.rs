@@ -11,8 +11,8 @@ mod common;
 
 use glam::DVec3;
 use shellsim::reference::analytic;
-use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::cast::form_factors;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::tracer::Tracer;
 
 fn estimate(tr: &Tracer, dirs: Directions, origins: Origins, n: usize, target: u32) -> f64 {

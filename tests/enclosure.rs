@@ -4,8 +4,8 @@
 mod common;
 
 use rayon::prelude::*;
-use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::cast::{form_factors, FormFactor};
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::tracer::Tracer;
 use shellsim::Scene;
 

@@ -8,8 +8,8 @@ mod common;
 
 use proptest::prelude::*;
 use shellsim::experiment::{
-    self, chart,
-    cli::{speedup_outputs, Which},
+    self,
+    outputs::{self, speedup_outputs, Which},
     Point, Workload,
 };
 use shellsim::machine::run::{run, RunSpec};
@@ -19,7 +19,7 @@ use std::path::Path;
 use std::process::Command;
 
 fn paper_config() -> MachineConfig {
-    shellsim::cli::machine_config(None).unwrap()
+    shellsim::config::machine(None).unwrap()
 }
 
 /// Static and balanced runs of `file` at `clusters` clusters and `ratio` on paper.toml.
@@ -235,8 +235,8 @@ fn experiments_are_deterministic_and_speedup_starts_at_one() {
     let e2 = experiment::efficiency(&w, &[2, 4], &[1]).unwrap();
     assert_eq!(experiment::points_csv(&e1), experiment::points_csv(&e2));
     assert_eq!(
-        chart::efficiency_svg("t", &e1).unwrap(),
-        chart::efficiency_svg("t", &e2).unwrap()
+        outputs::efficiency_svg("t", &e1).unwrap(),
+        outputs::efficiency_svg("t", &e2).unwrap()
     );
     let wi = experiment::work_item(&w, 4, 1, &[1, 8, 512]).unwrap();
     assert_eq!(

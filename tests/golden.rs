@@ -42,7 +42,7 @@ fn golden(scene_file: &str, config: &str) {
     let cfg_path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("hw/configs")
         .join(config);
-    let cfg = shellsim::cli::machine_config(Some(&cfg_path)).unwrap();
+    let cfg = shellsim::config::machine(Some(&cfg_path)).unwrap();
     let spec = RunSpec {
         source: 0,
         ratio: 1,

@@ -13,7 +13,7 @@ fn config(base: &str) -> MachineConfig {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("hw/configs")
         .join(base);
-    shellsim::cli::machine_config(Some(&p)).unwrap()
+    shellsim::config::machine(Some(&p)).unwrap()
 }
 
 #[derive(Clone, Copy, Debug)]

@@ -11,8 +11,8 @@ use shellsim::partition::angles::{AngleBox, Angles};
 use shellsim::partition::schedule::Schedule;
 use shellsim::partition::{partition, Config, Granularity, Partition};
 use shellsim::reference::rays::Frame;
-use shellsim::scene::Scene;
 use shellsim::reference::tracer::Tracer;
+use shellsim::scene::Scene;
 use std::collections::HashSet;
 use std::process::Command;
 

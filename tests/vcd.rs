@@ -225,7 +225,7 @@ fn read(path: &Path) -> Wave {
 /// The committed small machine.
 fn small() -> MachineConfig {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("hw/configs/small.toml");
-    shellsim::cli::machine_config(Some(&p)).unwrap()
+    shellsim::config::machine(Some(&p)).unwrap()
 }
 
 /// One waveform of scene1 on small.toml, ratio 1, with `opts`; returns the statistics, the
@@ -241,7 +241,8 @@ fn run(dir: &Path, file: &str, opts: VcdOptions) -> (RunStats, VcdSummary, PathB
     };
     let path = dir.join(file);
     let mut w = VcdWriter::create(&path, opts).unwrap();
-    let out = shellsim::machine::run::run(&scene, &scene_file, &small(), &spec, Some(&mut w)).unwrap();
+    let out =
+        shellsim::machine::run::run(&scene, &scene_file, &small(), &spec, Some(&mut w)).unwrap();
     assert_eq!(out.stats.mismatches_vs_fixed, 0);
     let summary = w.finish().unwrap();
     let g = gtkw::path_for(&path);

@@ -374,18 +374,14 @@ pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
             let on: Vec<&SpeedupRow> = rows.iter().filter(|r| r.balance).collect();
             line(
                 &mut chart,
-                on.iter()
-                    .map(|r| (r.clusters as f64, bound(r)))
-                    .collect(),
+                on.iter().map(|r| (r.clusters as f64, bound(r))).collect(),
                 BOUND,
                 "resource bound, balancing on",
                 true,
             )?;
             line(
                 &mut chart,
-                on.iter()
-                    .map(|r| (r.clusters as f64, sp(r)))
-                    .collect(),
+                on.iter().map(|r| (r.clusters as f64, sp(r))).collect(),
                 ON,
                 "dynamic balancing",
                 true,

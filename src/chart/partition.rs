@@ -32,9 +32,7 @@ pub fn workload_svg(caption: &str, panels: &[Panel]) -> Result<String> {
     {
         let root = SVGBackend::with_string(&mut out, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(draw_err)?;
-        let body = root
-            .titled(caption, ("sans-serif", 17))
-            .map_err(draw_err)?;
+        let body = root.titled(caption, ("sans-serif", 17)).map_err(draw_err)?;
         let areas = body.split_evenly((1, n));
         for (area, p) in areas.iter().zip(panels) {
             draw_panel(area, p).map_err(draw_err)?;

@@ -16,8 +16,8 @@ pub mod outputs;
 pub mod report;
 
 use crate::error::{Error, Result};
-use crate::paper::DEFAULT_CELL;
 use crate::machine::run::{self, MachineInput, Prepared, RunSpec, RunStats};
+use crate::paper::DEFAULT_CELL;
 use crate::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -531,38 +531,6 @@ pub fn stem(name: &str) -> String {
         .collect()
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn bound_picks_the_largest_resource() {
-        let b = Bound {
-            icu: 10,
-            memory: 3,
-            ctu_dda: 12,
-            ctu_issue: 12,
-        };
-        assert_eq!(b.cycles(), 12);
-        assert_eq!(b.binding(), Resource::CtuDda);
-    }
-
-    #[test]
-    fn one_cluster_keeps_every_sector_in_order() {
-        let s = vec![vec![vec![1, 2], vec![3]], vec![vec![4], vec![5, 6]]];
-        assert_eq!(
-            one_cluster(&s),
-            vec![vec![vec![1, 2], vec![3], vec![4], vec![5, 6]]]
-        );
-    }
-
-    #[test]
-    fn stems_are_safe() {
-        assert_eq!(stem("stress-skewed"), "stress-skewed");
-        assert_eq!(stem("a b/c"), "a_b_c");
-    }
-}
-
 impl Point {
     /// The point as the efficiency chart draws it.
     pub fn chart(&self) -> crate::chart::experiments::Point {
@@ -608,5 +576,37 @@ impl SpeedupRow {
             speedup_same_work: self.speedup_same_work,
             bound_speedup_same_work: self.bound_speedup_same_work,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bound_picks_the_largest_resource() {
+        let b = Bound {
+            icu: 10,
+            memory: 3,
+            ctu_dda: 12,
+            ctu_issue: 12,
+        };
+        assert_eq!(b.cycles(), 12);
+        assert_eq!(b.binding(), Resource::CtuDda);
+    }
+
+    #[test]
+    fn one_cluster_keeps_every_sector_in_order() {
+        let s = vec![vec![vec![1, 2], vec![3]], vec![vec![4], vec![5, 6]]];
+        assert_eq!(
+            one_cluster(&s),
+            vec![vec![vec![1, 2], vec![3], vec![4], vec![5, 6]]]
+        );
+    }
+
+    #[test]
+    fn stems_are_safe() {
+        assert_eq!(stem("stress-skewed"), "stress-skewed");
+        assert_eq!(stem("a b/c"), "a_b_c");
     }
 }

@@ -5,7 +5,9 @@ use super::{stem, Point, SpeedupRow, WorkItemRows, Workload};
 use crate::chart::experiments as chart;
 use crate::error::Result;
 use crate::output::write_atomic;
-use crate::paper::{PAPER_RATIO, RATIOS, SECTIONS, SPEEDUP_CLUSTERS, WORK_ITEMS, WORK_ITEM_CLUSTERS};
+use crate::paper::{
+    PAPER_RATIO, RATIOS, SECTIONS, SPEEDUP_CLUSTERS, WORK_ITEMS, WORK_ITEM_CLUSTERS,
+};
 use std::path::Path;
 
 /// Which experiment.
@@ -50,23 +52,12 @@ impl Outputs {
 /// Runs experiment `which` on `w` and renders its CSV and SVG.
 pub fn experiment(which: Which, w: &Workload) -> Result<Outputs> {
     match which {
-        Which::Efficiency => efficiency_outputs(
-            w,
-            &super::efficiency(w, &SECTIONS, &RATIOS)?,
-        ),
+        Which::Efficiency => efficiency_outputs(w, &super::efficiency(w, &SECTIONS, &RATIOS)?),
         Which::Workitem => work_item_outputs(
             w,
-            &super::work_item(
-                w,
-                WORK_ITEM_CLUSTERS,
-                PAPER_RATIO,
-                &WORK_ITEMS,
-            )?,
+            &super::work_item(w, WORK_ITEM_CLUSTERS, PAPER_RATIO, &WORK_ITEMS)?,
         ),
-        Which::Speedup => speedup_outputs(
-            w,
-            &super::speedup(w, &SPEEDUP_CLUSTERS, PAPER_RATIO)?,
-        ),
+        Which::Speedup => speedup_outputs(w, &super::speedup(w, &SPEEDUP_CLUSTERS, PAPER_RATIO)?),
     }
 }
 
@@ -98,7 +89,7 @@ pub fn efficiency_outputs(w: &Workload, pts: &[Point]) -> Result<Outputs> {
     Ok(Outputs {
         stem: stem_of(Which::Efficiency, w),
         csv: super::points_csv(pts),
-        svg: chart::efficiency_svg(&title, &pts.iter().map(Point::chart).collect::<Vec<_>>())?,
+        svg: efficiency_svg(&title, pts)?,
         summary,
     })
 }
@@ -128,7 +119,7 @@ pub fn work_item_outputs(w: &Workload, rows: &WorkItemRows) -> Result<Outputs> {
     Ok(Outputs {
         stem: stem_of(Which::Workitem, w),
         csv: super::work_item_csv(rows),
-        svg: chart::work_item_svg(&title, &rows.chart())?,
+        svg: work_item_svg(&title, rows)?,
         summary,
     })
 }
@@ -157,7 +148,25 @@ pub fn speedup_outputs(w: &Workload, rows: &[SpeedupRow]) -> Result<Outputs> {
     Ok(Outputs {
         stem: stem_of(Which::Speedup, w),
         csv: super::speedup_csv(rows),
-        svg: chart::speedup_svg(&title, &rows.iter().map(SpeedupRow::chart).collect::<Vec<_>>())?,
+        svg: speedup_svg(&title, rows)?,
         summary,
     })
+}
+
+/// The efficiency chart of `points` (see [`chart::efficiency_svg`]).
+pub fn efficiency_svg(title: &str, points: &[Point]) -> Result<String> {
+    chart::efficiency_svg(title, &points.iter().map(Point::chart).collect::<Vec<_>>())
+}
+
+/// The work-item chart of `rows` (see [`chart::work_item_svg`]).
+pub fn work_item_svg(title: &str, rows: &WorkItemRows) -> Result<String> {
+    chart::work_item_svg(title, &rows.chart())
+}
+
+/// The speedup chart of `rows` (see [`chart::speedup_svg`]).
+pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
+    chart::speedup_svg(
+        title,
+        &rows.iter().map(SpeedupRow::chart).collect::<Vec<_>>(),
+    )
 }

@@ -11,14 +11,14 @@ use super::outputs::{efficiency_outputs, speedup_outputs, work_item_outputs, Out
 use super::{
     frac, machine, measure, one_cluster, prepare, Point, SpeedupRow, WorkItemRows, Workload,
 };
+use crate::error::Result;
+use crate::machine::run::MachineInput;
+use crate::output::write_atomic;
 use crate::paper::{
     AIM, PAPER_GAIN, PAPER_RATIO, RATIOS, SECTIONS as EFFICIENCY_CLUSTERS, SPEEDUP_CLUSTERS,
     WORK_ITEMS, WORK_ITEM_CLUSTERS,
 };
-use crate::error::Result;
-use crate::output::write_atomic;
 use crate::scene::gen::{self, Kind};
-use crate::machine::run::MachineInput;
 use rayon::prelude::*;
 use shellsim_hw::machine_config::MachineConfig;
 use std::fmt::Write as _;

@@ -2,18 +2,18 @@
 //! each put into an explained class (overflow, a tie in t, near an edge or vertex, grazing)
 //! or reported as unexplained; t error in LSBs; form-factor error.
 
-use crate::fixed::records::HostFixed;
 use crate::error::{Error, Result};
+use crate::fixed::records::HostFixed;
 use crate::output::write_json;
-use crate::reference::rays::{RaySet, RaySpec};
-use crate::scene::Scene;
-use shellsim_hw::DatapathConfig;
-use std::path::Path;
 use crate::reference::cast::form_factors;
+use crate::reference::rays::{RaySet, RaySpec};
 use crate::reference::tracer::{Hit, PatchGeom, PreparedRay, Ray, Tracer};
+use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
+use shellsim_hw::DatapathConfig;
 use shellsim_hw::{Exceptions, FixedHit};
+use std::path::Path;
 
 /// Tolerances of the classes.
 #[derive(Clone, Copy, Debug, Serialize)]

@@ -4,8 +4,8 @@
 
 use crate::error::{Error, Result};
 use crate::reference::grid::polygon_touches_box;
-use crate::scene::{Aabb, Scene};
 use crate::reference::tracer::Ray;
+use crate::scene::{Aabb, Scene};
 use glam::DVec3;
 use shellsim_hw::config::{DatapathConfig, Formats};
 use shellsim_hw::record::{CellTable, PatchRecord, RayRecord, PATCH_ID_BITS};

@@ -2,14 +2,14 @@
 //! bit widths — mismatch rate and form-factor error against bits, beside the estimator's own
 //! sampling error and a rough hardware cost — as CSV and an SVG chart.
 
-use crate::fixed::check::{check, CheckReport};
+use crate::chart::bits::BitsPoint;
 use crate::error::{Error, Result};
-use crate::output::write_atomic;
+use crate::fixed::check::{check, CheckReport};
 use crate::fixed::records::HostFixed;
+use crate::output::write_atomic;
 use crate::reference::rays::{RaySet, RaySpec};
 use crate::reference::tracer::Tracer;
 use crate::Scene;
-use crate::chart::bits::BitsPoint;
 use shellsim_hw::config::HardwareCost;
 use shellsim_hw::DatapathConfig;
 use std::path::Path;

@@ -151,11 +151,8 @@ fn analytic_check() -> AnalyticCheck {
     let (hits, _) = cast::cast(&tracer, &set, Some(0), None);
     let (ff, _, _) = cast::form_factors(&hits, &set.weights, cube.patches.len());
     let estimate = ff.iter().find(|x| x.patch == 1).map_or(0.0, |x| x.value);
-    let truth = crate::reference::analytic::point_to_polygon(
-        centre,
-        DVec3::Z,
-        &cube.patches[1].vertices,
-    );
+    let truth =
+        crate::reference::analytic::point_to_polygon(centre, DVec3::Z, &cube.patches[1].vertices);
     // Stratified error model of tests/convergence.rs.
     AnalyticCheck {
         estimate,

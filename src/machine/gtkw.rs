@@ -28,8 +28,8 @@
 //!   `[w-1:0]` range here, exactly as `vcd_out` declares it.
 
 use crate::error::Result;
-use crate::output::write_atomic;
 use crate::machine::vcd::{Signal, SignalKind, VcdSummary};
+use crate::output::write_atomic;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

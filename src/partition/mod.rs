@@ -34,8 +34,8 @@ use crate::paper::{PAPER_RAYS, SUBREGIONS};
 use crate::reference::rays::{
     check_source_and_rays, hemisphere_rays, Directions, Frame, Origins, RaySet,
 };
-use crate::scene::Scene;
 use crate::reference::tracer::{Hit, Tracer};
+use crate::scene::Scene;
 use angles::{AngleBox, Angles, Axis, SubregionGrid};
 use lowres::{LowRes, Workload};
 use rayon::prelude::*;

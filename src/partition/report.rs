@@ -246,7 +246,9 @@ impl Report {
                 s.part.rays,
                 s.sectors.len(),
                 s.part.intersections,
-                100.0 * (s.part.predicted_intersections as f64 / s.part.intersections.max(1) as f64 - 1.0),
+                100.0
+                    * (s.part.predicted_intersections as f64 / s.part.intersections.max(1) as f64
+                        - 1.0),
                 s.part.patch_loads
             );
         }

@@ -2,7 +2,7 @@
 //! which rays meet which patches in which order, per cluster and CTU, and nothing else.
 //!
 //! **The machine does not consume it.** `shellsim run` hands the cycle-level machine only
-//! each sector's ray ids (see [`crate::machine::run::prepare`]); the machine's CTUs redo the
+//! each sector's ray ids (see `machine::run::prepare`); the machine's CTUs redo the
 //! shells and subshells themselves in fixed point. The schedule is the float partitioner's
 //! account of the same work, for inspection and for tests (its jobs equal the partition's
 //! intersections).

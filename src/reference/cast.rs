@@ -1,12 +1,12 @@
 //! Form factors by the float reference: cast a ray set from a source patch through the
 //! tracer, sum the weights per hit patch, count escapes; results as JSON.
 
-use crate::progress::Progress;
 use crate::error::Result;
+use crate::progress::Progress;
 use crate::reference::rays::{Directions, RaySet, RaySpec};
 use crate::reference::tracer::{Hit, TraceCounts, Tracer};
-use rayon::prelude::*;
 use crate::scene::Scene;
+use rayon::prelude::*;
 use serde::Serialize;
 use std::path::Path;
 

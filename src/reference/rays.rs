@@ -3,14 +3,14 @@
 //! plain random cosine-weighted rays — with the weights that make their sums form factors.
 
 use crate::error::{Error, Result};
-use crate::scene::{Patch, Scene};
-use std::path::Path;
 use crate::reference::tracer::Ray;
+use crate::scene::{Patch, Scene};
 use glam::DVec3;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::f64::consts::{FRAC_PI_2, PI};
+use std::path::Path;
 
 /// How ray directions are chosen over the hemisphere.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]

@@ -2,8 +2,8 @@
 //! reflectance, the scene, its JSON form, and validation with errors that name the file and
 //! the patch. The polygon geometry is checked by [`super::polygon`].
 
-use crate::error::{Error, Result};
 use super::polygon::{self, MAX_COORD};
+use crate::error::{Error, Result};
 use crate::output::write_atomic;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};

@@ -14,9 +14,9 @@
 //! the one-number form `Kd r` of `.mtl` colours to `Kd r r r` (the MTL spec's meaning),
 //! which `tobj` would otherwise panic on.
 
-use crate::error::{Error, Result};
 use super::model::{Aabb, Patch, Scene, Spectrum};
 use super::polygon;
+use crate::error::{Error, Result};
 use glam::DVec3;
 use std::cell::RefCell;
 use std::path::Path;

@@ -3,7 +3,7 @@
 use super::*;
 
 /// The Cornell box's size in millimetres along its depth: the scale factor to the unit cube.
-const CORNELL_MM: f64 = 559.2;
+pub(super) const CORNELL_MM: f64 = 559.2;
 
 /// The published light's height is the ceiling's (548.8 mm); it is put 0.1 mm lower so it
 /// is not coplanar with the ceiling.
@@ -13,7 +13,7 @@ const CORNELL_LIGHT_Y: f64 = 548.7;
 /// 1/559.2 and turned z-up by a proper rotation (x, y, z) → (x, 559.2 − z, y), so the red
 /// wall stays on the left seen from the front. The back wall lands on y = 0, the added front
 /// wall on y = 1, the floor on z = 0.
-fn cornell_point([x, y, z]: [f64; 3]) -> DVec3 {
+pub(super) fn cornell_point([x, y, z]: [f64; 3]) -> DVec3 {
     v3(
         x / CORNELL_MM,
         (CORNELL_MM - z) / CORNELL_MM,
@@ -22,7 +22,7 @@ fn cornell_point([x, y, z]: [f64; 3]) -> DVec3 {
 }
 
 /// The Cornell box's 8 corners (mm), from which every shell face is built.
-const CB: [[f64; 3]; 8] = [
+pub(super) const CB: [[f64; 3]; 8] = [
     [552.8, 0.0, 0.0],     // 0: floor, front, x high
     [0.0, 0.0, 0.0],       // 1: floor, front, x = 0
     [0.0, 0.0, 559.2],     // 2: floor, back, x = 0
@@ -34,8 +34,8 @@ const CB: [[f64; 3]; 8] = [
 ];
 
 const CORNELL_WHITE: Spectrum = Spectrum::Grey(0.75);
-const CORNELL_RED: Spectrum = Spectrum::Rgb([0.63, 0.065, 0.05]);
-const CORNELL_GREEN: Spectrum = Spectrum::Rgb([0.14, 0.45, 0.091]);
+pub(super) const CORNELL_RED: Spectrum = Spectrum::Rgb([0.63, 0.065, 0.05]);
+pub(super) const CORNELL_GREEN: Spectrum = Spectrum::Rgb([0.14, 0.45, 0.091]);
 
 /// The Cornell box's shell (floor, ceiling, back, right, left and the added front wall) as
 /// published (corner indices into [`CB`]) with their colours; each face is oriented into

@@ -416,6 +416,8 @@ fn v3(x: f64, y: f64, z: f64) -> DVec3 {
 
 #[cfg(test)]
 mod tests {
+    use super::cornell::{cornell_point, CB, CORNELL_GREEN, CORNELL_MM, CORNELL_RED};
+    use super::paper::separated;
     use super::*;
     use std::collections::HashMap;
     use std::path::Path;

@@ -44,7 +44,7 @@ pub(super) fn scene1(rng: &mut Pcg64) -> Vec<Patch> {
 /// of their points are closer than `gap`). The axes tried are those of the separating axis
 /// test (both normals and the cross products of their edges) and the line through the
 /// centroids; a `false` may be conservative.
-fn separated(a: &[DVec3], b: &[DVec3], gap: f64) -> bool {
+pub(super) fn separated(a: &[DVec3], b: &[DVec3], gap: f64) -> bool {
     let centroid = |v: &[DVec3]| v.iter().copied().sum::<DVec3>() / v.len() as f64;
     let normal = |v: &[DVec3]| (v[1] - v[0]).cross(v[2] - v[0]);
     let edge = |v: &[DVec3], i: usize| v[(i + 1) % v.len()] - v[i];
