@@ -8,10 +8,10 @@ use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use shellsim::check::check;
-use shellsim::fixed::HostFixed;
-use shellsim::rays::{hemisphere_rays, Directions, Origins};
-use shellsim::trace::{Ray, Tracer};
+use shellsim::fixed::check::check;
+use shellsim::fixed::records::HostFixed;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::{Ray, Tracer};
 use shellsim_hw::{DatapathConfig, Exceptions};
 use std::path::Path;
 

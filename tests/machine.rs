@@ -7,9 +7,9 @@
 mod common;
 
 use common::{check_variant, config, run_variant, spec, Variant};
-use shellsim::run::run;
+use shellsim::machine::run::run;
+use shellsim_hw::config::ArbiterPolicy;
 use shellsim_hw::machine::TickOrder;
-use shellsim_hw::machine_config::ArbiterPolicy;
 use std::path::Path;
 
 /// One `#[test]` per cell of clusters 1/2/4/8 × CTUs 1/2/4 × both arbiters × small and

@@ -10,9 +10,9 @@ use proptest::prelude::*;
 use shellsim::partition::angles::{AngleBox, Angles};
 use shellsim::partition::schedule::Schedule;
 use shellsim::partition::{partition, Config, Granularity, Partition};
-use shellsim::rays::Frame;
+use shellsim::reference::rays::Frame;
+use shellsim::reference::tracer::Tracer;
 use shellsim::scene::Scene;
-use shellsim::trace::Tracer;
 use std::collections::HashSet;
 use std::process::Command;
 
