@@ -12,6 +12,24 @@ use shellsim_hw::config::ArbiterPolicy;
 use shellsim_hw::machine::TickOrder;
 use std::path::Path;
 
+/// A matrix cell: clusters, CTUs, arbiter, small buffers, cycle jump; the file's balancing.
+const fn cell(
+    clusters: u32,
+    ctus: u32,
+    arbiter: ArbiterPolicy,
+    small: bool,
+    jump: bool,
+) -> Variant {
+    Variant {
+        clusters,
+        ctus,
+        arbiter,
+        small_buffers: small,
+        jump,
+        balance: None,
+    }
+}
+
 /// One `#[test]` per cell of clusters 1/2/4/8 × CTUs 1/2/4 × both arbiters × small and
 /// paper buffers × cycle jump on and off, in nested modules named by the knobs.
 macro_rules! full_matrix {
@@ -48,14 +66,7 @@ macro_rules! full_matrix {
     (@j $file:literal, $cn:literal, $kn:literal, $an:ident, $bn:literal; $($j:ident $jn:literal),*) => {$(
         #[test]
         fn $j() {
-            check_variant($file, &Variant {
-                clusters: $cn,
-                ctus: $kn,
-                arbiter: ArbiterPolicy::$an,
-                small_buffers: $bn,
-                jump: $jn,
-                balance: None,
-            });
+            check_variant($file, &cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn));
         }
     )*};
 }
@@ -68,25 +79,11 @@ full_matrix! {
 /// One `#[test]` per listed cell, and the cells as `CELLS` for the coverage check.
 macro_rules! cells {
     ($file:literal; $($name:ident => $cn:literal, $kn:literal, $an:ident, $bn:literal, $jn:literal;)*) => {
-        pub const CELLS: &[Variant] = &[$(Variant {
-            clusters: $cn,
-            ctus: $kn,
-            arbiter: ArbiterPolicy::$an,
-            small_buffers: $bn,
-            jump: $jn,
-            balance: None,
-        }),*];
+        pub const CELLS: &[Variant] = &[$(cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn)),*];
         $(
             #[test]
             fn $name() {
-                check_variant($file, &Variant {
-                    clusters: $cn,
-                    ctus: $kn,
-                    arbiter: ArbiterPolicy::$an,
-                    small_buffers: $bn,
-                    jump: $jn,
-                    balance: None,
-                });
+                check_variant($file, &cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn));
             }
         )*
     };
@@ -158,14 +155,7 @@ mod stress_dense {
 
     #[test]
     fn c2_k1_fixed_priority_small_step() {
-        let v = Variant {
-            clusters: 2,
-            ctus: 1,
-            arbiter: ArbiterPolicy::FixedPriority,
-            small_buffers: true,
-            jump: false,
-            balance: None,
-        };
+        let v = cell(2, 1, ArbiterPolicy::FixedPriority, true, false);
         check_variant("stress-dense.json", &v);
     }
 }
