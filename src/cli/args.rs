@@ -74,6 +74,14 @@ impl DatapathArgs {
     }
 }
 
+/// The grid's cell size, for the subcommands that build a grid without a machine.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct CellArg {
+    /// Grid cell size (default: the built-in configuration's machine.cell_size).
+    #[arg(long, default_value_t = config::built_in().machine.cell_size)]
+    pub cell: f64,
+}
+
 /// On or off.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum OnOff {

@@ -1,6 +1,7 @@
 //! `shellsim partition`: one partition run with its report, chart and schedule, or the
 //! committed figures (`--figures DIR`).
 
+use super::args::CellArg;
 use crate::error::Result;
 use crate::output::write_atomic;
 use crate::paper::PAPER_RAYS;
@@ -54,9 +55,8 @@ pub struct PartitionArgs {
     /// Seed of the ray origins (the high-resolution pass uses seed + 1).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Grid cell size.
-    #[arg(long, default_value_t = crate::config::built_in().machine.cell_size)]
-    pub cell: f64,
+    #[command(flatten)]
+    pub grid: CellArg,
     /// Write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -91,7 +91,7 @@ pub fn run(a: &PartitionArgs) -> Result<()> {
         shell_radius: a.shell_radius,
         subshell_max: a.subshell_max,
         seed: a.seed,
-        cell_size: a.cell,
+        cell_size: a.grid.cell,
     };
     cfg.validate(&scene, file)?;
     let tracer = Tracer::new(&scene, cfg.cell_size)?;

@@ -1,5 +1,6 @@
 //! `shellsim scene gen|import|info`.
 
+use super::args::CellArg;
 use crate::error::Result;
 use crate::reference::tracer::Tracer;
 use crate::scene::{gen, obj, Aabb, Scene};
@@ -39,16 +40,16 @@ pub enum SceneCmd {
     Info {
         /// The scene file (.json or .obj).
         file: PathBuf,
-        /// Grid cell size for the grid statistics.
-        #[arg(long, default_value_t = crate::config::built_in().machine.cell_size)]
-        cell: f64,
+        /// The grid for the grid statistics.
+        #[command(flatten)]
+        grid: CellArg,
     },
 }
 
 /// Runs `shellsim scene ...`.
 pub fn run(c: SceneCmd) -> Result<()> {
     match c {
-        SceneCmd::Info { file, cell } => info(&file, cell),
+        SceneCmd::Info { file, grid } => info(&file, grid.cell),
         SceneCmd::Gen { kind, seed, out } => {
             let scene = gen::generate(kind, seed);
             scene.validate(&out)?;
