@@ -49,7 +49,7 @@ impl ReferenceArgs {
 /// Runs `shellsim reference`.
 pub fn run(a: &ReferenceArgs) -> Result<()> {
     let scene = Scene::load(&a.scene)?;
-    let report = cast::run_scene(&scene, &a.scene, &a.spec(), a.grid.cell)?;
+    let report = cast::run_scene(&scene, &a.scene, &a.spec(), a.grid.for_scene(&scene))?;
     print_reference(&report, &scene);
     if let Some(out) = &a.json {
         write_json(out, &report)?;

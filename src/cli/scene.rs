@@ -49,7 +49,7 @@ pub enum SceneCmd {
 /// Runs `shellsim scene ...`.
 pub fn run(c: SceneCmd) -> Result<()> {
     match c {
-        SceneCmd::Info { file, grid } => info(&file, grid.cell),
+        SceneCmd::Info { file, grid } => info(&file, grid),
         SceneCmd::Gen { kind, seed, out } => {
             let scene = gen::generate(kind, seed);
             scene.validate(&out)?;
@@ -100,9 +100,9 @@ fn parse_bounds(s: &str) -> std::result::Result<Aabb, String> {
     })
 }
 
-fn info(file: &Path, cell: f64) -> Result<()> {
+fn info(file: &Path, grid: CellArg) -> Result<()> {
     let scene = Scene::load(file)?;
-    let tracer = Tracer::new(&scene, cell)?;
+    let tracer = Tracer::new(&scene, grid.for_scene(&scene))?;
     let g = &tracer.grid;
     let tris = scene
         .patches

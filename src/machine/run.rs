@@ -3,6 +3,7 @@
 //! statistics ([`simulate`]; JSON, units in the names), with the waveform and the report
 //! written beside it ([`execute`]).
 
+use crate::config;
 use crate::error::{Error, Result};
 use crate::fixed::records::HostFixed;
 use crate::machine::vcd::{VcdOptions, VcdWriter};
@@ -95,20 +96,22 @@ pub fn prepare(
     cfg: &MachineConfig,
     spec: &RunSpec,
 ) -> Result<Prepared> {
+    let cfg = &config::resolve(cfg, scene.bounds.scale())?;
     let m = &cfg.machine;
-    let tracer = Tracer::new(scene, cfg.machine.cell_size)?;
+    let cell = m.cell_size.value();
+    let tracer = Tracer::new(scene, cell)?;
     let mut pcfg = PartitionConfig::paper(
         spec.source,
         m.clusters as usize,
         m.ctus_per_cluster as usize,
         spec.ratio,
     );
-    pcfg.shell_radius = m.shell_radius;
+    pcfg.shell_radius = m.shell_radius.value();
     pcfg.subshell_max = m.subshell_max_patches as usize;
-    pcfg.cell_size = cfg.machine.cell_size;
+    pcfg.cell_size = cell;
     pcfg.validate(scene, file)?;
     let part = partition::partition(scene, &tracer, &pcfg);
-    let host = HostFixed::new(scene, file, cfg.datapath, cfg.machine.cell_size)?;
+    let host = HostFixed::new(scene, file, cfg.datapath, cell)?;
     let records: Vec<RayRecord> = part
         .high_rays
         .rays
@@ -185,7 +188,8 @@ pub fn simulate(
         sectors,
     } = *input;
     let start = std::time::Instant::now();
-    let mut machine = Machine::new(*cfg, &host.scene, records, sectors, spec.source);
+    let hw = config::in_hardware_units(cfg, host.scale)?;
+    let mut machine = Machine::new(hw, &host.scene, records, sectors, spec.source);
     machine
         .run(spec.order, probe)
         .map_err(|d| Error::Check(d.to_string()))?;
@@ -346,7 +350,7 @@ pub fn execute(
         write_json(
             out_path,
             &Out {
-                config: *cfg,
+                config: config::resolve(cfg, scene.bounds.scale())?,
                 stats: &out.stats,
             },
         )?;
