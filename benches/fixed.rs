@@ -2,9 +2,10 @@
 //! second (brute force: every patch of scene2 against the paper's 969 ring rays), one thread.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use shellsim::fixed::HostFixed;
-use shellsim::rays::{hemisphere_rays, Directions, Origins, PAPER_RAYS};
-use shellsim::trace::{PreparedRay, Tracer};
+use shellsim::fixed::records::HostFixed;
+use shellsim::paper::PAPER_RAYS;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::{PreparedRay, Tracer};
 use shellsim::Scene;
 use shellsim_hw::datapath::intersect;
 use shellsim_hw::Exceptions;

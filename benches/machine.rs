@@ -3,8 +3,8 @@
 //! (ray, patch) jobs.
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use shellsim::fixed::HostFixed;
-use shellsim::run::{run, RunSpec};
+use shellsim::fixed::records::HostFixed;
+use shellsim::machine::run::{run, RunSpec};
 use shellsim::Scene;
 use shellsim_hw::datapath::intersect;
 use shellsim_hw::machine::TickOrder;
@@ -15,11 +15,10 @@ use std::path::Path;
 fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
-    let cfg = shellsim::cli::machine_config(None).unwrap();
+    let cfg = shellsim::config::machine(None).unwrap();
     let spec = RunSpec {
         source: 0,
         ratio: 1,
-        cell: 0.05,
         order: TickOrder::Forward,
     };
     let probe = run(&scene, &path, &cfg, &spec, None).unwrap();
@@ -33,7 +32,7 @@ fn bench(c: &mut Criterion) {
     g.bench_function("whole_run_with_partition_and_check", |b| {
         b.iter(|| black_box(run(&scene, &path, &cfg, &spec, None).unwrap().stats.cycles))
     });
-    let prep = shellsim::run::prepare(&scene, &path, &cfg, &spec).unwrap();
+    let prep = shellsim::machine::run::prepare(&scene, &path, &cfg, &spec).unwrap();
     g.bench_function("cycle_model", |b| {
         b.iter(|| {
             let mut m = shellsim_hw::machine::Machine::new(
@@ -52,11 +51,11 @@ fn bench(c: &mut Criterion) {
     g.bench_function("cycle_model_with_vcd", |b| {
         b.iter(|| {
             let path = dir.join("bench.vcd");
-            let opts = shellsim::vcd_out::VcdOptions {
-                window: shellsim::vcd_out::Window::ALL,
+            let opts = shellsim::machine::vcd::VcdOptions {
+                window: shellsim::machine::vcd::Window::ALL,
                 scope: None,
             };
-            let mut w = shellsim::vcd_out::VcdWriter::create(&path, opts).unwrap();
+            let mut w = shellsim::machine::vcd::VcdWriter::create(&path, opts).unwrap();
             let mut m = shellsim_hw::machine::Machine::new(
                 cfg,
                 &prep.host.scene,
@@ -71,11 +70,11 @@ fn bench(c: &mut Criterion) {
     // The untimed model doing the same number of (ray, patch) jobs: each high-resolution
     // ray against patches in id order, wrapping, until `jobs` tests are done.
     let host = HostFixed::new(&scene, &path, cfg.datapath, 0.05).unwrap();
-    let set = shellsim::rays::hemisphere_rays(
+    let set = shellsim::reference::rays::hemisphere_rays(
         &scene.patches[0],
         969,
-        shellsim::rays::Directions::Rings,
-        shellsim::rays::Origins::Patch,
+        shellsim::reference::rays::Directions::Rings,
+        shellsim::reference::rays::Origins::Patch,
         2,
     );
     let records: Vec<_> = set

@@ -2,8 +2,9 @@
 //! each of 50 source patches; brute force on the same rays for the ratio.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use shellsim::rays::{hemisphere_rays, Directions, Origins, PAPER_RAYS};
-use shellsim::trace::{Ray, Tracer};
+use shellsim::paper::PAPER_RAYS;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::{Ray, Tracer};
 use shellsim::Scene;
 use std::hint::black_box;
 use std::path::Path;

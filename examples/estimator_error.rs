@@ -3,13 +3,13 @@
 //! `cargo run --release --example estimator_error`.
 
 use glam::DVec3;
-use shellsim::analytic;
-use shellsim::rays::{hemisphere_rays, Directions, Origins};
-use shellsim::reference::form_factors;
-use shellsim::trace::Tracer;
+use shellsim::reference::analytic;
+use shellsim::reference::cast::form_factors;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::Tracer;
 
 fn main() {
-    let scene = shellsim::gen::unit_cube();
+    let scene = shellsim::scene::gen::unit_cube();
     let tr = Tracer::new(&scene, 0.05).unwrap();
     let centre = DVec3::new(0.5, 0.5, 0.0);
     let cases = [

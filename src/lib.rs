@@ -1,25 +1,25 @@
 //! shellsim: the host side and test bench of the shelling ray-casting machine — scenes,
-//! grid, ray sets, the float reference tracer, analytic form factors, and the CLI's jobs.
+//! grid, ray sets, the float reference tracer, analytic form factors, the partitioner, the
+//! fixed-point host side, the machine's runs and experiments, and the CLI.
+//!
+//! Dependencies point one way (see ARCHITECTURE.md): `cli` → everything, nothing imports
+//! `cli`; `experiment` → `machine`, `partition`, `chart`; `machine` → `fixed`, `partition`,
+//! `reference`; `fixed`, `partition` → `reference` → `scene`. `error`, `output`, `config`,
+//! `paper`, `progress` and `chart` are leaves anyone may use.
 
-pub mod analytic;
-pub mod check;
+pub mod chart;
 pub mod cli;
+pub mod config;
 pub mod error;
 pub mod experiment;
 pub mod fixed;
-pub mod gen;
-pub mod grid;
-pub mod gtkw;
-pub mod obj;
+pub mod machine;
+pub mod output;
+pub mod paper;
 pub mod partition;
 pub mod progress;
-pub mod rays;
 pub mod reference;
-pub mod run;
 pub mod scene;
-pub mod sweep;
-pub mod trace;
-pub mod vcd_out;
 
 pub use error::{Error, Result};
 pub use scene::{Aabb, Patch, Scene, Spectrum};

@@ -298,7 +298,7 @@ fn obj_malformed_mtl() {
 
 #[test]
 fn obj_vertex_outside_given_bounds() {
-    use shellsim::obj::{import, ImportOptions};
+    use shellsim::scene::obj::{import, ImportOptions};
     use shellsim::Aabb;
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("outside.obj");

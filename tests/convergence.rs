@@ -10,10 +10,10 @@
 mod common;
 
 use glam::DVec3;
-use shellsim::analytic;
-use shellsim::rays::{hemisphere_rays, Directions, Origins};
-use shellsim::reference::form_factors;
-use shellsim::trace::Tracer;
+use shellsim::reference::analytic;
+use shellsim::reference::cast::form_factors;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::Tracer;
 
 fn estimate(tr: &Tracer, dirs: Directions, origins: Origins, n: usize, target: u32) -> f64 {
     let cube = common::unit_cube();

@@ -4,9 +4,9 @@
 mod common;
 
 use rayon::prelude::*;
-use shellsim::rays::{hemisphere_rays, Directions, Origins};
-use shellsim::reference::{form_factors, FormFactor};
-use shellsim::trace::Tracer;
+use shellsim::reference::cast::{form_factors, FormFactor};
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::Tracer;
 use shellsim::Scene;
 
 fn ff_from(

@@ -8,13 +8,13 @@ mod common;
 
 use proptest::prelude::*;
 use shellsim::experiment::{
-    self, chart,
-    cli::{speedup_outputs, Which},
+    self,
+    outputs::{self, speedup_outputs, Which},
     Point, Workload,
 };
-use shellsim::run::{run, RunSpec};
+use shellsim::machine::run::{run, RunSpec};
+use shellsim_hw::config::{ArbiterPolicy, MachineConfig, VictimPolicy};
 use shellsim_hw::machine::TickOrder;
-use shellsim_hw::machine_config::{ArbiterPolicy, MachineConfig, VictimPolicy};
 use std::path::Path;
 use std::process::Command;
 
@@ -182,7 +182,7 @@ proptest! {
     fn random_balanced_machines_are_exact(r in random()) {
         let (file, source) = if r.cornell { ("cornell.json", 1) } else { ("scene1.json", 0) };
         let scene = common::load(file);
-        let spec = RunSpec { source, ratio: 1, cell: 0.05, order: TickOrder::Forward };
+        let spec = RunSpec { source, ratio: 1, order: TickOrder::Forward };
         let out = run(&scene, Path::new(file), &r.config(), &spec, None)
             .unwrap_or_else(|e| panic!("{file} {r:?}: {e}"));
         let s = &out.stats;
@@ -240,8 +240,8 @@ fn experiments_are_deterministic_and_speedup_starts_at_one() {
     let e2 = experiment::efficiency(&w, &[2, 4], &[1]).unwrap();
     assert_eq!(experiment::points_csv(&e1), experiment::points_csv(&e2));
     assert_eq!(
-        chart::efficiency_svg("t", &e1).unwrap(),
-        chart::efficiency_svg("t", &e2).unwrap()
+        outputs::efficiency_svg("t", &e1).unwrap(),
+        outputs::efficiency_svg("t", &e2).unwrap()
     );
     let wi = experiment::work_item(&w, 4, 1, &[1, 8, 512]).unwrap();
     assert_eq!(

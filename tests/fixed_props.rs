@@ -4,11 +4,11 @@
 
 use glam::DVec3;
 use proptest::prelude::*;
-use shellsim::check::check;
-use shellsim::fixed::HostFixed;
-use shellsim::rays::RaySet;
+use shellsim::fixed::check::check;
+use shellsim::fixed::records::HostFixed;
+use shellsim::reference::rays::RaySet;
+use shellsim::reference::tracer::{Ray, Tracer};
 use shellsim::scene::{Aabb, Patch, Scene};
-use shellsim::trace::{Ray, Tracer};
 use shellsim_hw::datapath::intersect;
 use shellsim_hw::{DatapathConfig, Exceptions, PatchRecord, RayRecord};
 use std::path::Path;

@@ -6,11 +6,11 @@
 mod common;
 
 use serde_json::{json, Value};
-use shellsim::run::run;
+use shellsim::machine::run::run;
 use std::path::{Path, PathBuf};
 
 /// The figures a golden pins.
-fn key_figures(s: &shellsim::run::RunStats) -> Value {
+fn key_figures(s: &shellsim::machine::run::RunStats) -> Value {
     json!({
         "rays": s.rays,
         "cycles": s.cycles,

@@ -11,7 +11,7 @@ use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use shellsim::trace::{Ray, Tracer};
+use shellsim::reference::tracer::{Ray, Tracer};
 
 /// Rays per scene, and on stress-dense.
 const RAYS: usize = 1_000_000;

@@ -6,10 +6,10 @@
 
 mod common;
 
-use common::{check_variant, config, run_variant, spec, Variant};
-use shellsim::run::run;
+use common::{assert_same_run, check_variant, config, run_variant, spec, Variant};
+use shellsim::machine::run::run;
+use shellsim_hw::config::ArbiterPolicy;
 use shellsim_hw::machine::TickOrder;
-use shellsim_hw::machine_config::ArbiterPolicy;
 use std::path::Path;
 
 /// One `#[test]` per cell of clusters 1/2/4/8 × CTUs 1/2/4 × both arbiters × small and
@@ -189,12 +189,7 @@ fn the_cycle_jump_changes_no_statistic(file: &str) {
         a.stats.cycles
     );
     assert_eq!(b.stats.skipped_cycles, 0);
-    assert_eq!(
-        serde_json::to_string(&a.stats).unwrap(),
-        serde_json::to_string(&b.stats).unwrap(),
-        "{file}"
-    );
-    assert_eq!(a.hits, b.hits);
+    assert_same_run(&a, &b, file);
 }
 
 mod cycle_jump {
@@ -224,12 +219,7 @@ fn tick_order_changes_nothing(file: &str, balance: bool, order: TickOrder) {
         );
     }
     let other = run_variant(file, &v, order);
-    assert_eq!(
-        serde_json::to_string(&other.stats).unwrap(),
-        serde_json::to_string(&fwd.stats).unwrap(),
-        "{file} {order:?} balance {balance}"
-    );
-    assert_eq!(other.hits, fwd.hits);
+    assert_same_run(&other, &fwd, &format!("{file} {order:?} balance {balance}"));
 }
 
 mod tick_order {
@@ -253,10 +243,7 @@ mod tick_order {
 fn two_runs_give_identical_json() {
     let a = run_variant("scene2.json", &Variant::PAPER, TickOrder::Forward);
     let b = run_variant("scene2.json", &Variant::PAPER, TickOrder::Forward);
-    assert_eq!(
-        serde_json::to_string(&a.stats).unwrap(),
-        serde_json::to_string(&b.stats).unwrap()
-    );
+    assert_same_run(&a, &b, "scene2, paper.toml, twice");
 }
 
 #[test]

@@ -8,11 +8,11 @@
 
 mod common;
 
-use shellsim::gtkw;
-use shellsim::run::{RunSpec, RunStats};
-use shellsim::vcd_out::{ScopeFilter, VcdOptions, VcdSummary, VcdWriter, Window};
+use shellsim::machine::gtkw;
+use shellsim::machine::run::{RunSpec, RunStats};
+use shellsim::machine::vcd::{ScopeFilter, VcdOptions, VcdSummary, VcdWriter, Window};
+use shellsim_hw::config::MachineConfig;
 use shellsim_hw::machine::TickOrder;
-use shellsim_hw::machine_config::MachineConfig;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -235,12 +235,12 @@ fn run(dir: &Path, file: &str, opts: VcdOptions) -> (RunStats, VcdSummary, PathB
     let spec = RunSpec {
         source: 0,
         ratio: 1,
-        cell: shellsim::grid::DEFAULT_CELL,
         order: TickOrder::Forward,
     };
     let path = dir.join(file);
     let mut w = VcdWriter::create(&path, opts).unwrap();
-    let out = shellsim::run::run(&scene, &scene_file, &small(), &spec, Some(&mut w)).unwrap();
+    let out =
+        shellsim::machine::run::run(&scene, &scene_file, &small(), &spec, Some(&mut w)).unwrap();
     assert_eq!(out.stats.mismatches_vs_fixed, 0);
     let summary = w.finish().unwrap();
     let g = gtkw::path_for(&path);

@@ -8,7 +8,7 @@ use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use shellsim::trace::{PatchGeom, PreparedRay, Ray, Tracer};
+use shellsim::reference::tracer::{PatchGeom, PreparedRay, Ray, Tracer};
 use std::collections::HashMap;
 
 type Key = [u64; 3];

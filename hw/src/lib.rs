@@ -29,13 +29,3 @@ pub use config::{DatapathConfig, Formats};
 pub use datapath::model::FixedScene;
 pub use datapath::record::{CellTable, PatchRecord, RayRecord};
 pub use datapath::{Exceptions, FixedHit};
-
-// Compatibility paths for the host; removed when src/ moves to the new paths.
-pub use datapath::{dda, format, model, record};
-pub use units::{balancer, cluster, ctu, icu, memory, patch_buffer, ray_buffer};
-/// Compatibility path for the host (`config::machine` and `config::MachineConfig`); removed
-/// when src/ moves to the new paths.
-pub mod machine_config {
-    pub use crate::config::machine::*;
-    pub use crate::config::MachineConfig;
-}

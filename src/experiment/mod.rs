@@ -12,34 +12,18 @@
 //! an experiment with a mismatch is an error, not a data point).
 //! **Invariant:** `Bound::cycles() <= cycles` for every run (tested).
 
-pub mod chart;
-pub mod cli;
-pub mod paper;
+pub mod outputs;
+pub mod report;
 
 use crate::error::{Error, Result};
-use crate::grid::DEFAULT_CELL;
-use crate::run::{self, MachineInput, Prepared, RunSpec, RunStats};
+use crate::machine::run::{self, MachineInput, Prepared, RunSpec, RunStats};
 use crate::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
+use shellsim_hw::config::MachineConfig;
 use shellsim_hw::machine::TickOrder;
-use shellsim_hw::machine_config::MachineConfig;
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// Cluster (ICU) counts of the paper's efficiency figures (Table 12.1's sections).
-pub const EFFICIENCY_CLUSTERS: [u32; 3] = [2, 4, 8];
-/// The paper's Hi_Low_Ratios (Table 12.1).
-pub const RATIOS: [usize; 3] = [1, 10, 30];
-/// The ratio the paper favours ("it is favourable to choose 10"), used for work-item and
-/// speedup.
-pub const PAPER_RATIO: usize = 10;
-/// Work-item sizes of the work-item experiment (jobs).
-pub const WORK_ITEMS: [u32; 8] = [1, 2, 4, 8, 16, 32, 64, 128];
-/// Clusters of the work-item experiment.
-pub const WORK_ITEM_CLUSTERS: u32 = 8;
-/// Cluster counts of the speedup experiment.
-pub const SPEEDUP_CLUSTERS: [u32; 4] = [1, 2, 4, 8];
 
 /// What an experiment runs on.
 #[derive(Clone, Copy)]
@@ -253,7 +237,6 @@ fn spec(w: &Workload, ratio: usize) -> RunSpec {
     RunSpec {
         source: w.source,
         ratio,
-        cell: DEFAULT_CELL,
         order: TickOrder::Forward,
     }
 }
@@ -544,6 +527,54 @@ pub fn stem(name: &str) -> String {
             }
         })
         .collect()
+}
+
+impl Point {
+    /// The point as the efficiency chart draws it.
+    pub fn chart(&self) -> crate::chart::experiments::Point {
+        crate::chart::experiments::Point {
+            ratio: self.ratio,
+            rays: self.rays,
+            clusters: self.clusters,
+            balance: self.balance,
+            pipeline_efficiency: self.pipeline_efficiency,
+        }
+    }
+
+    /// The point as the work-item chart draws it.
+    pub fn work_item_chart(&self) -> crate::chart::experiments::WorkItemPoint {
+        crate::chart::experiments::WorkItemPoint {
+            work_item_jobs: self.work_item_jobs,
+            pipeline_efficiency: self.pipeline_efficiency,
+            cycles: self.cycles,
+            bound_cycles: self.bound.cycles(),
+            binding: self.bound.binding().name(),
+        }
+    }
+}
+
+impl WorkItemRows {
+    /// The rows as the work-item chart draws them.
+    pub fn chart(&self) -> crate::chart::experiments::WorkItemRows {
+        crate::chart::experiments::WorkItemRows {
+            off: self.off.work_item_chart(),
+            on: self.on.iter().map(Point::work_item_chart).collect(),
+        }
+    }
+}
+
+impl SpeedupRow {
+    /// The row as the speedup chart draws it.
+    pub fn chart(&self) -> crate::chart::experiments::SpeedupRow {
+        crate::chart::experiments::SpeedupRow {
+            clusters: self.point.clusters,
+            balance: self.point.balance,
+            speedup: self.speedup,
+            bound_speedup: self.bound_speedup,
+            speedup_same_work: self.speedup_same_work,
+            bound_speedup_same_work: self.bound_speedup_same_work,
+        }
+    }
 }
 
 #[cfg(test)]

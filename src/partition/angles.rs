@@ -1,5 +1,5 @@
 //! Hemisphere coordinates of the partitioner: the polar angle θ (from the source's normal)
-//! and the azimuth φ (from the source's first edge) of [`crate::rays::Frame::of_patch`],
+//! and the azimuth φ (from the source's first edge) of [`crate::reference::rays::Frame::of_patch`],
 //! held as integer nanodegrees, with the half-open angle boxes that sections, sectors and
 //! subregions are made of.
 //!
@@ -13,7 +13,7 @@
 //! has φ = 0. Boxes are half-open on both axes, so boxes made by splitting a box at integer
 //! positions are disjoint and cover it.
 
-use crate::rays::Frame;
+use crate::reference::rays::Frame;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
@@ -259,7 +259,7 @@ pub fn parse_subregions(s: &str) -> Result<(usize, usize), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rays::rings_local;
+    use crate::reference::rays::rings_local;
     use crate::scene::Patch;
 
     fn floor_frame() -> Frame {

@@ -9,7 +9,7 @@
 
 use super::angles::{Angles, SubregionGrid};
 use super::shells::{BundleRun, Caster};
-use crate::rays::Frame;
+use crate::reference::rays::Frame;
 use rayon::prelude::*;
 use serde::Serialize;
 

@@ -15,15 +15,14 @@
 //! angle boxes tile the hemisphere (disjoint, covering it) — see [`angles`] and [`split`].
 //!
 //! **Invariant:** the nearest hit each ray gets from its sector's schedule equals the float
-//! tracer's ([`crate::trace::Tracer::trace`], source excluded); a run counts the
+//! tracer's ([`crate::reference::tracer::Tracer::trace`], source excluded); a run counts the
 //! disagreements (`nearest_hit_mismatches`), and the CLI fails when there are any.
 //!
 //! **Invariant:** deterministic: the same scene, configuration and seed give the same
 //! partition, counts and schedule, whatever the thread count; reports hold no timings.
 
 pub mod angles;
-pub mod chart;
-pub mod cli;
+pub mod figures;
 pub mod lowres;
 pub mod report;
 pub mod schedule;
@@ -31,9 +30,12 @@ pub mod shells;
 pub mod split;
 
 use crate::error::{Error, Result};
-use crate::rays::{hemisphere_rays, Directions, Frame, Origins, RaySet, PAPER_RAYS};
+use crate::paper::{PAPER_RAYS, SUBREGIONS};
+use crate::reference::rays::{
+    check_source_and_rays, hemisphere_rays, Directions, Frame, Origins, RaySet,
+};
+use crate::reference::tracer::{Hit, Tracer};
 use crate::scene::Scene;
-use crate::trace::{Hit, Tracer};
 use angles::{AngleBox, Angles, Axis, SubregionGrid};
 use lowres::{LowRes, Workload};
 use rayon::prelude::*;
@@ -41,8 +43,6 @@ use serde::Serialize;
 use shells::{BundleRun, Caster, ShellParams};
 use split::{Item, Positions};
 use std::path::Path;
-
-pub use cli::PartitionArgs;
 
 /// Most sections (clusters) a partition may have.
 pub const MAX_SECTIONS: usize = 1024;
@@ -91,7 +91,9 @@ pub struct Config {
 }
 
 impl Config {
-    /// The paper's parameters (Table 12.1) for `sections` × `ctus` at `ratio`.
+    /// The paper's parameters (Table 12.1, [`crate::paper`]) for `sections` × `ctus` at
+    /// `ratio`; the shell radius and the subshell threshold of the built-in configuration
+    /// (`machine.shell_radius`, `machine.subshell_max_patches`).
     pub fn paper(source: u32, sections: usize, ctus: usize, ratio: usize) -> Config {
         Config {
             source,
@@ -99,12 +101,12 @@ impl Config {
             ctus,
             ratio,
             rays_low: PAPER_RAYS,
-            subregions: (5, 5),
+            subregions: SUBREGIONS,
             granularity: Granularity::Subregion,
-            shell_radius: shells::DEFAULT_SHELL_RADIUS,
-            subshell_max: shells::DEFAULT_SUBSHELL_MAX,
+            shell_radius: ShellParams::default().radius,
+            subshell_max: ShellParams::default().subshell_max,
             seed: 1,
-            cell_size: crate::grid::DEFAULT_CELL,
+            cell_size: crate::config::built_in().machine.cell_size,
         }
     }
 
@@ -121,55 +123,65 @@ impl Config {
     }
 
     /// Checks the configuration against `scene` (read from `file`): bad values are
-    /// `Error::Input` (a source that does not exist) or `Error::Usage` (exit status 2).
+    /// `Error::Input` (a source that does not exist) or `Error::Param` naming the field
+    /// (`sections`, `ratio`, `shell_radius`, ...; exit status 2).
     pub fn validate(&self, scene: &Scene, file: &Path) -> Result<()> {
-        crate::cli::check_source_and_rays(scene, file, self.source, self.rays_low.max(1))?;
-        let usage = |m: String| Err(Error::Usage(m));
+        check_source_and_rays(scene, file, self.source, self.rays_low.max(1))?;
+        let param = |key: &str, m: String| Err(Error::param(key, m));
         if !(1..=MAX_SECTIONS).contains(&self.sections) {
-            return usage(format!(
-                "--sections {} is out of range (1..={MAX_SECTIONS})",
-                self.sections
-            ));
+            return param(
+                "sections",
+                format!("{} is out of range (1..={MAX_SECTIONS})", self.sections),
+            );
         }
         if !(1..=MAX_CTUS).contains(&self.ctus) {
-            return usage(format!(
-                "--ctus {} is out of range (1..={MAX_CTUS})",
-                self.ctus
-            ));
+            return param(
+                "ctus",
+                format!("{} is out of range (1..={MAX_CTUS})", self.ctus),
+            );
         }
         if !(1..=MAX_PASS_RAYS).contains(&self.rays_low) {
-            return usage(format!(
-                "--rays {} is out of range (1..={MAX_PASS_RAYS})",
-                self.rays_low
-            ));
+            return param(
+                "rays",
+                format!("{} is out of range (1..={MAX_PASS_RAYS})", self.rays_low),
+            );
         }
         if self.ratio == 0 || self.rays_high() > MAX_PASS_RAYS {
-            return usage(format!(
-                "--ratio {} is out of range: at least 1, and ratio × {} rays at most {MAX_PASS_RAYS}",
-                self.ratio, self.rays_low
-            ));
+            return param(
+                "ratio",
+                format!(
+                    "{} is out of range: at least 1, and ratio × {} rays at most {MAX_PASS_RAYS}",
+                    self.ratio, self.rays_low
+                ),
+            );
         }
         let (a, b) = self.subregions;
         if !(1..=SubregionGrid::MAX_THETA).contains(&a)
             || !(1..=SubregionGrid::MAX_PHI).contains(&b)
         {
-            return usage(format!(
-                "--subregions {a}x{b} is out of range (θ 1..={}, φ 1..={})",
-                SubregionGrid::MAX_THETA,
-                SubregionGrid::MAX_PHI
-            ));
+            return param(
+                "subregions",
+                format!(
+                    "{a}x{b} is out of range (θ 1..={}, φ 1..={})",
+                    SubregionGrid::MAX_THETA,
+                    SubregionGrid::MAX_PHI
+                ),
+            );
         }
         let diag = scene.bounds.extent().length();
         if !(self.shell_radius.is_finite() && self.shell_radius > 0.0)
             || diag / self.shell_radius > MAX_SHELLS
         {
-            return usage(format!(
-                "--shell-radius {} must be a finite number above 0 giving at most {MAX_SHELLS} shells across the scene (diagonal {diag})",
-                self.shell_radius
-            ));
+            return param(
+                "shell_radius",
+                format!(
+                    "{} must be a finite number above 0 giving at most {MAX_SHELLS} shells across the scene (diagonal {diag})",
+                    self.shell_radius
+                ),
+            );
         }
         if self.subshell_max == 0 {
-            return usage("--subshell-max must be at least 1".into());
+            return param("subshell_max", "must be at least 1".into());
         }
         Ok(())
     }
@@ -371,6 +383,18 @@ impl Partition {
     /// Max over mean of actual intersections per section (1 when there is no work).
     pub fn imbalance(&self) -> f64 {
         imbalance(self.section_work().iter().map(|w| w.intersections))
+    }
+
+    /// `Err(Error::Check)` when some ray's nearest hit from its sector's subshells differs
+    /// from the float tracer's.
+    pub fn verdict(&self) -> Result<()> {
+        if self.nearest_hit_mismatches > 0 {
+            return Err(Error::Check(format!(
+                "{} rays got a different nearest hit from their sector's schedule than from the float tracer",
+                self.nearest_hit_mismatches
+            )));
+        }
+        Ok(())
     }
 
     /// Max over mean of predicted intersections per section.

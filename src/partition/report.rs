@@ -6,6 +6,7 @@
 //! `patch_loads` = distinct patches per sector summed; `predicted_*` = the low-resolution
 //! counts of the items inside the box, times the ratio.
 
+use super::angles::AngleBox;
 use super::lowres::Workload;
 use super::{imbalance, Granularity, Partition};
 use serde::Serialize;
@@ -55,35 +56,44 @@ pub struct Report {
     pub low_resolution: Vec<BoxReport>,
 }
 
-/// One section (cluster).
+/// What a section and a sector report alike: its box and actual work (as a low-resolution
+/// box reports them) and the low-resolution prediction. Flattened into both, so their JSON
+/// lists these fields first.
 #[derive(Clone, Debug, Serialize)]
-pub struct SectionReport {
-    pub index: usize,
-    pub theta_deg: [f64; 2],
-    pub phi_deg: [f64; 2],
-    pub rays: u64,
-    pub intersections: u64,
-    pub traversals: u64,
-    pub patch_loads: u64,
+pub struct PartReport {
+    /// Index among the partition's sections, or within its section for a sector; the box
+    /// and the actual work of the high-resolution pass.
+    #[serde(flatten)]
+    pub actual: BoxReport,
     pub predicted_rays: u64,
     pub predicted_intersections: u64,
     pub predicted_traversals: u64,
+}
+
+impl PartReport {
+    fn new(index: usize, bounds: &AngleBox, actual: &Workload, predicted: &Workload) -> Self {
+        PartReport {
+            actual: BoxReport::new(index, bounds, actual),
+            predicted_rays: predicted.rays,
+            predicted_intersections: predicted.intersections,
+            predicted_traversals: predicted.traversals,
+        }
+    }
+}
+
+/// One section (cluster).
+#[derive(Clone, Debug, Serialize)]
+pub struct SectionReport {
+    #[serde(flatten)]
+    pub part: PartReport,
     pub sectors: Vec<SectorReport>,
 }
 
 /// One sector (CTU).
 #[derive(Clone, Debug, Serialize)]
 pub struct SectorReport {
-    pub index: usize,
-    pub theta_deg: [f64; 2],
-    pub phi_deg: [f64; 2],
-    pub rays: u64,
-    pub intersections: u64,
-    pub traversals: u64,
-    pub patch_loads: u64,
-    pub predicted_rays: u64,
-    pub predicted_intersections: u64,
-    pub predicted_traversals: u64,
+    #[serde(flatten)]
+    pub part: PartReport,
     /// Shells with work, and subshells in all.
     pub shells: usize,
     pub subshells: usize,
@@ -99,6 +109,20 @@ pub struct BoxReport {
     pub intersections: u64,
     pub traversals: u64,
     pub patch_loads: u64,
+}
+
+impl BoxReport {
+    fn new(index: usize, bounds: &AngleBox, w: &Workload) -> Self {
+        BoxReport {
+            index,
+            theta_deg: bounds.theta_deg(),
+            phi_deg: bounds.phi_deg(),
+            rays: w.rays,
+            intersections: w.intersections,
+            traversals: w.traversals,
+            patch_loads: w.patch_loads,
+        }
+    }
 }
 
 impl Report {
@@ -121,39 +145,21 @@ impl Report {
                     .map(|x| {
                         let a = x.actual();
                         SectorReport {
-                            index: x.sector,
-                            theta_deg: x.bounds.theta_deg(),
-                            phi_deg: x.bounds.phi_deg(),
-                            rays: a.rays,
-                            intersections: a.intersections,
-                            traversals: a.traversals,
-                            patch_loads: a.patch_loads,
-                            predicted_rays: x.predicted.rays,
-                            predicted_intersections: x.predicted.intersections,
-                            predicted_traversals: x.predicted.traversals,
+                            part: PartReport::new(x.sector, &x.bounds, &a, &x.predicted),
                             shells: x.run.shells(),
                             subshells: x.run.subshells.len(),
                         }
                     })
                     .collect();
                 SectionReport {
-                    index: i,
-                    theta_deg: s.bounds.theta_deg(),
-                    phi_deg: s.bounds.phi_deg(),
-                    rays: w.rays,
-                    intersections: w.intersections,
-                    traversals: w.traversals,
-                    patch_loads: w.patch_loads,
-                    predicted_rays: pr.rays,
-                    predicted_intersections: pr.intersections,
-                    predicted_traversals: pr.traversals,
+                    part: PartReport::new(i, &s.bounds, w, pr),
                     sectors,
                 }
             })
             .collect();
         let sector_imbalance = sections
             .iter()
-            .map(|s| imbalance(s.sectors.iter().map(|x| x.traversals)))
+            .map(|s| imbalance(s.sectors.iter().map(|x| x.part.actual.traversals)))
             .fold(1.0f64, f64::max);
         let total = work.iter().fold(Workload::default(), |mut a, w| {
             a.add(w);
@@ -191,18 +197,7 @@ impl Report {
                 .work
                 .iter()
                 .enumerate()
-                .map(|(k, w)| {
-                    let b = p.low.grid.box_of(k);
-                    BoxReport {
-                        index: k,
-                        theta_deg: b.theta_deg(),
-                        phi_deg: b.phi_deg(),
-                        rays: w.rays,
-                        intersections: w.intersections,
-                        traversals: w.traversals,
-                        patch_loads: w.patch_loads,
-                    }
-                })
+                .map(|(k, w)| BoxReport::new(k, &p.low.grid.box_of(k), w))
                 .collect(),
         }
     }
@@ -237,16 +232,19 @@ impl Report {
         for s in &self.sections {
             println!(
                 "{:>7}  {:>6.2}–{:<8.2}  {:>6.2}–{:<8.2}  {:>8}  {:>7}  {:>12}  {:>+7.1}%  {:>7}",
-                s.index,
-                s.theta_deg[0],
-                s.theta_deg[1],
-                s.phi_deg[0],
-                s.phi_deg[1],
-                s.rays,
+                s.part.actual.index,
+                s.part.actual.theta_deg[0],
+                s.part.actual.theta_deg[1],
+                s.part.actual.phi_deg[0],
+                s.part.actual.phi_deg[1],
+                s.part.actual.rays,
                 s.sectors.len(),
-                s.intersections,
-                100.0 * (s.predicted_intersections as f64 / s.intersections.max(1) as f64 - 1.0),
-                s.patch_loads
+                s.part.actual.intersections,
+                100.0
+                    * (s.part.predicted_intersections as f64
+                        / s.part.actual.intersections.max(1) as f64
+                        - 1.0),
+                s.part.actual.patch_loads
             );
         }
         println!(

@@ -1,6 +1,11 @@
-//! The schedule: the partitioner's hand-off to the hardware (`hw/`, the cycle-level
-//! machine issue). It says which rays meet which patches in which order, per cluster and
-//! CTU, and nothing else.
+//! The schedule: an output of the partitioner (`shellsim partition --schedule`) that says
+//! which rays meet which patches in which order, per cluster and CTU, and nothing else.
+//!
+//! **The machine does not consume it.** `shellsim run` hands the cycle-level machine only
+//! each sector's ray ids (see `machine::run::prepare`); the machine's CTUs redo the
+//! shells and subshells themselves in fixed point. The schedule is the float partitioner's
+//! account of the same work, for inspection and for tests (its jobs equal the partition's
+//! intersections).
 //!
 //! **Invariant:** only ids and counts — ray ids (indices into the high-resolution ray
 //! set), linear cell ids (x fastest, then y, then z, over `grid_dims`), patch ids (indices
@@ -12,6 +17,7 @@
 //! patch is loaded once per sector); subshells are in processing order (shell, then part);
 //! a subshell's `rays` are the sector's rays not yet retired at its start, ascending.
 
+use super::shells::Subshell;
 use super::Partition;
 use serde::{Deserialize, Serialize};
 
@@ -38,38 +44,14 @@ pub struct SectionSchedule {
     pub sectors: Vec<SectorSchedule>,
 }
 
-/// One CTU's work: its bundle of rays and its subshells in order.
+/// One CTU's work: its bundle of rays and its subshells ([`Subshell`]) in order.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct SectorSchedule {
     pub theta_nanodeg: [u64; 2],
     pub phi_nanodeg: [u64; 2],
     /// The sector's rays (ids), ascending.
     pub rays: Vec<u32>,
-    pub subshells: Vec<SubshellSchedule>,
-}
-
-/// One subshell: the primitive unit of work (the paper's s').
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SubshellSchedule {
-    /// Shell index (concentric about the source's centroid).
-    pub shell: u32,
-    /// Subshell index within the shell.
-    pub part: u32,
-    /// Nonempty cells in traversal order (linear cell ids).
-    pub cells: Vec<u32>,
-    /// Patches to load and test: the ones the sector has not loaded before.
-    pub patches: Vec<u32>,
-    /// Remaining rays at the subshell's start (ids, ascending).
-    pub rays: Vec<u32>,
-    /// Cell steps the CTU makes for those rays in this subshell.
-    pub traversals: u64,
-}
-
-impl SubshellSchedule {
-    /// The ICU's jobs: every remaining ray against every active patch.
-    pub fn jobs(&self) -> u64 {
-        self.rays.len() as u64 * self.patches.len() as u64
-    }
+    pub subshells: Vec<Subshell>,
 }
 
 impl Schedule {
@@ -91,19 +73,7 @@ impl Schedule {
                         theta_nanodeg: x.bounds.theta,
                         phi_nanodeg: x.bounds.phi,
                         rays: x.rays.clone(),
-                        subshells: x
-                            .run
-                            .subshells
-                            .iter()
-                            .map(|sub| SubshellSchedule {
-                                shell: sub.shell,
-                                part: sub.part,
-                                cells: sub.cells.clone(),
-                                patches: sub.patches.clone(),
-                                rays: sub.rays.clone(),
-                                traversals: sub.traversals,
-                            })
-                            .collect(),
+                        subshells: x.run.subshells.clone(),
                     })
                     .collect(),
             })
@@ -122,7 +92,7 @@ impl Schedule {
             .iter()
             .flat_map(|s| &s.sectors)
             .flat_map(|x| &x.subshells)
-            .map(SubshellSchedule::jobs)
+            .map(Subshell::intersections)
             .sum()
     }
 }

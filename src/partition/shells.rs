@@ -38,8 +38,8 @@
 //! **Invariant:** the work does not depend on the thread count: bundles are independent
 //! and every order inside one is fixed (ray order, traversal order, patch id order).
 
-use crate::grid::Grid;
-use crate::trace::{Hit, PreparedRay, Ray, Tracer};
+use crate::reference::grid::Grid;
+use crate::reference::tracer::{Hit, PreparedRay, Ray, Tracer};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -54,18 +54,16 @@ pub struct ShellParams {
 }
 
 impl Default for ShellParams {
+    /// The built-in configuration's `machine.shell_radius` and
+    /// `machine.subshell_max_patches` (hw/configs/paper.toml).
     fn default() -> Self {
+        let m = &crate::config::built_in().machine;
         ShellParams {
-            radius: DEFAULT_SHELL_RADIUS,
-            subshell_max: DEFAULT_SUBSHELL_MAX,
+            radius: m.shell_radius,
+            subshell_max: m.subshell_max_patches as usize,
         }
     }
 }
-
-/// The paper's shell radius (Table 12.1).
-pub const DEFAULT_SHELL_RADIUS: f64 = 0.289;
-/// Default subshell threshold on new active patches.
-pub const DEFAULT_SUBSHELL_MAX: usize = 64;
 
 /// One cell step of a ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -136,8 +134,9 @@ impl Walks {
     }
 }
 
-/// One subshell of a bundle: the unit of work of the machine (see the module doc).
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// One subshell of a bundle: the unit of work of the machine, the paper's s' (see the module
+/// doc). The [`super::schedule::Schedule`] lists these as they are.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Subshell {
     /// The shell it belongs to.
     pub shell: u32,
@@ -394,7 +393,7 @@ impl<'a> Caster<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::rays::{hemisphere_rays, Directions, Origins};
+    use crate::reference::rays::{hemisphere_rays, Directions, Origins};
     use crate::scene::{Aabb, Patch, Scene};
 
     /// The unit cube's floor and ceiling, plus a field of small tiles at mid height.

@@ -3,10 +3,10 @@
 //! conservation checks, and the `testcases!` macro that makes one `#[test]` per matrix cell.
 #![allow(dead_code)]
 
-use shellsim::run::{run, RunOutput, RunSpec};
+use shellsim::machine::run::{run, RunOutput, RunSpec};
 use shellsim::scene::Scene;
+use shellsim_hw::config::{ArbiterPolicy, MachineConfig};
 use shellsim_hw::machine::TickOrder;
-use shellsim_hw::machine_config::{ArbiterPolicy, MachineConfig};
 use std::path::{Path, PathBuf};
 
 /// The committed scene files, by file name.
@@ -35,7 +35,7 @@ pub fn load(name: &str) -> Scene {
 
 /// The unit cube's six walls facing inward: 0 floor (z=0), 1 ceiling, 2 x=0, 3 x=1, 4 y=0, 5 y=1.
 pub fn unit_cube() -> Scene {
-    shellsim::gen::unit_cube()
+    shellsim::scene::gen::unit_cube()
 }
 
 /// Path of a committed machine configuration, `hw/configs/NAME.toml`.
@@ -47,16 +47,15 @@ pub fn config_path(name: &str) -> PathBuf {
 
 /// A committed machine configuration by name (`paper`, `small`), loaded as the CLI loads it.
 pub fn config(name: &str) -> MachineConfig {
-    shellsim::cli::machine_config(Some(&config_path(name))).unwrap_or_else(|e| panic!("{e}"))
+    shellsim::config::machine(Some(&config_path(name))).unwrap_or_else(|e| panic!("{e}"))
 }
 
-/// The run every machine test starts from: source patch 0, Hi_Low_Ratio 1, the paper's cell,
+/// The run every machine test starts from: source patch 0, Hi_Low_Ratio 1 (the cell size is the configuration's),
 /// units ticked in their natural order.
 pub fn spec() -> RunSpec {
     RunSpec {
         source: 0,
         ratio: 1,
-        cell: 0.05,
         order: TickOrder::Forward,
     }
 }
@@ -160,6 +159,16 @@ pub fn check_variant(file: &str, v: &Variant) -> RunOutput {
         );
     }
     out
+}
+
+/// Two runs gave the same statistics (their deterministic JSON) and the same hits.
+pub fn assert_same_run(a: &RunOutput, b: &RunOutput, what: &str) {
+    assert_eq!(
+        serde_json::to_string(&a.stats).unwrap(),
+        serde_json::to_string(&b.stats).unwrap(),
+        "{what}: statistics differ"
+    );
+    assert_eq!(a.hits, b.hits, "{what}: hits differ");
 }
 
 /// One `#[test]` per case, as mooneye-gb's suite builds one test per ROM × model: each case

@@ -52,14 +52,6 @@ pub struct Formats {
 }
 
 impl DatapathConfig {
-    /// The `[datapath]` table of a whole configuration file, through the one parser
-    /// ([`MachineConfig::from_toml_str`](super::MachineConfig::from_toml_str)).
-    ///
-    /// Kept until the host's loader moves; remove.
-    pub fn from_toml_str(text: &str) -> Result<Self, ConfigError> {
-        super::MachineConfig::from_toml_str(text).map(|c| c.datapath)
-    }
-
     /// The derived formats; an error names the key that makes them impossible.
     pub fn formats(&self) -> Result<Formats, ConfigError> {
         let err = |key: &str, what: String| ConfigError {
@@ -202,16 +194,20 @@ mod tests {
         format!("{head}[datapath]\n{datapath}")
     }
 
+    /// The `[datapath]` table of a whole file, through the one parser.
+    fn parse(text: &str) -> Result<DatapathConfig, ConfigError> {
+        super::super::MachineConfig::from_toml_str(text).map(|c| c.datapath)
+    }
+
     #[test]
     fn unknown_and_impossible_keys_are_errors() {
-        let e = DatapathConfig::from_toml_str(&file("frac_bits = 20\n")).unwrap_err();
+        let e = parse(&file("frac_bits = 20\n")).unwrap_err();
         assert!(e.what.contains("missing field"), "{e}");
         let ok = "frac_bits = 20\ncoord_int_bits = 2\nt_frac_bits = 20\nt_int_bits = 3\nword_bits = 32\ncell_margin_lsb = 4\n";
-        assert!(DatapathConfig::from_toml_str(&file(ok)).is_ok());
-        let e = DatapathConfig::from_toml_str(&file(&format!("{ok}colour = 1\n"))).unwrap_err();
+        assert!(parse(&file(ok)).is_ok());
+        let e = parse(&file(&format!("{ok}colour = 1\n"))).unwrap_err();
         assert!(e.what.contains("unknown field"), "{e}");
-        let e = DatapathConfig::from_toml_str(&file(&ok.replace("= 20\ncoord", "= 99\ncoord")))
-            .unwrap_err();
+        let e = parse(&file(&ok.replace("= 20\ncoord", "= 99\ncoord"))).unwrap_err();
         assert_eq!(e.key, "frac_bits");
     }
 }

@@ -17,9 +17,6 @@ use crate::scene::{Aabb, Patch, Scene};
 use glam::DVec3;
 use std::path::Path;
 
-/// The default cell size (the paper's Table 12.1): 20³ cells on the unit cube.
-pub const DEFAULT_CELL: f64 = 0.05;
-
 /// Most cells a grid may have (512³): beyond this the cell table alone would be gigabytes.
 pub const MAX_CELLS: usize = 1 << 27;
 

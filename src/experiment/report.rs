@@ -1,4 +1,4 @@
-//! `shellsim paper`: every figure of the paper from shellsim's own runs, in one command —
+//! The paper report (`shellsim paper`): every figure of the paper from shellsim's own runs, in one command —
 //! workloads per ICU (Figs 12.8–12.13, the partitioner's figures), pipeline efficiency with
 //! and without balancing (scene2 and stress-skewed), efficiency against work-item size
 //! (Fig 12.14), speedup against ICUs (Fig 12.15) — with a markdown report of the headline
@@ -7,23 +7,22 @@
 //! **Invariant:** the report and every file it links hold no timing: the same build gives
 //! byte-identical output.
 
-use super::cli::{efficiency_outputs, speedup_outputs, work_item_outputs, Outputs};
+use super::outputs::{efficiency_outputs, speedup_outputs, work_item_outputs, Outputs};
 use super::{
     frac, machine, measure, one_cluster, prepare, Point, SpeedupRow, WorkItemRows, Workload,
-    EFFICIENCY_CLUSTERS, PAPER_RATIO, RATIOS, SPEEDUP_CLUSTERS, WORK_ITEMS, WORK_ITEM_CLUSTERS,
 };
-use crate::error::{write_atomic, Result};
-use crate::gen::{self, Kind};
-use crate::run::MachineInput;
+use crate::error::Result;
+use crate::machine::run::MachineInput;
+use crate::output::write_atomic;
+use crate::paper::{
+    AIM, PAPER_GAIN, PAPER_RATIO, RATIOS, SECTIONS as EFFICIENCY_CLUSTERS, SPEEDUP_CLUSTERS,
+    WORK_ITEMS, WORK_ITEM_CLUSTERS,
+};
+use crate::scene::gen::{self, Kind};
 use rayon::prelude::*;
-use shellsim_hw::machine_config::MachineConfig;
+use shellsim_hw::config::MachineConfig;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-
-/// The paper's improvement from dynamic balancing, in efficiency and in speedup (§12.3.2).
-pub const PAPER_GAIN: f64 = 0.15;
-/// The aim for the speedup at 8 ICUs, as a fraction of ideal.
-pub const AIM: f64 = 0.90;
 
 /// A machine variant of the what-if table.
 #[derive(Clone, Debug)]
@@ -131,8 +130,8 @@ fn committed(kind: Kind) -> (crate::Scene, PathBuf) {
 /// Runs every experiment of the paper and writes the figures, their CSV and `report.md`
 /// into `dir` (the workload figures into `dir/workloads`).
 pub fn paper(dir: &Path) -> Result<PaperResults> {
-    crate::partition::cli::figures(&dir.join("workloads"))?;
-    let base = crate::cli::machine_config(None)?;
+    crate::partition::figures::figures(&dir.join("workloads"))?;
+    let base = *crate::config::built_in();
     let (s2, f2) = committed(Kind::Scene2);
     let (sk, fk) = committed(Kind::StressSkewed);
     let w2 = Workload {
@@ -347,8 +346,8 @@ pub fn report(r: &PaperResults) -> String {
         b.link_latency,
         b.link_words_per_cycle,
         match b.victim {
-            shellsim_hw::machine_config::VictimPolicy::MostPending => "most-pending",
-            shellsim_hw::machine_config::VictimPolicy::RoundRobin => "round-robin",
+            shellsim_hw::config::VictimPolicy::MostPending => "most-pending",
+            shellsim_hw::config::VictimPolicy::RoundRobin => "round-robin",
         }
     );
     let _ = writeln!(

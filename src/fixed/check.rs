@@ -2,13 +2,18 @@
 //! each put into an explained class (overflow, a tie in t, near an edge or vertex, grazing)
 //! or reported as unexplained; t error in LSBs; form-factor error.
 
-use crate::fixed::HostFixed;
-use crate::rays::RaySet;
-use crate::reference::form_factors;
-use crate::trace::{Hit, PatchGeom, PreparedRay, Ray, Tracer};
+use crate::error::{Error, Result};
+use crate::fixed::records::HostFixed;
+use crate::output::write_json;
+use crate::reference::cast::form_factors;
+use crate::reference::rays::{RaySet, RaySpec};
+use crate::reference::tracer::{Hit, PatchGeom, PreparedRay, Ray, Tracer};
+use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
+use shellsim_hw::DatapathConfig;
 use shellsim_hw::{Exceptions, FixedHit};
+use std::path::Path;
 
 /// Tolerances of the classes.
 #[derive(Clone, Copy, Debug, Serialize)]
@@ -294,4 +299,51 @@ fn classify(
         }
     }
     None
+}
+
+/// The `check` job: checks `spec` against `scene` (read from `file`), builds the float
+/// tracer and the fixed-point scene on cells of `cell` with `datapath`, and compares them
+/// on the rays with the default tolerances.
+pub fn check_scene(
+    scene: &Scene,
+    file: &Path,
+    datapath: DatapathConfig,
+    spec: &RaySpec,
+    cell: f64,
+) -> Result<CheckReport> {
+    spec.validate(scene, file)?;
+    let tracer = Tracer::new(scene, cell)?;
+    let host = HostFixed::new(scene, file, datapath, cell)?;
+    let set = spec.rays(scene);
+    Ok(check(&tracer, &host, &set, spec.source, Default::default()))
+}
+
+impl CheckReport {
+    /// `Err(Error::Check)` when some mismatch has no explanation.
+    pub fn verdict(&self) -> Result<()> {
+        if self.unexplained_mismatches > 0 {
+            return Err(Error::Check(format!(
+                "{} unexplained mismatches (listed in the JSON report)",
+                self.unexplained_mismatches
+            )));
+        }
+        Ok(())
+    }
+
+    /// Writes the report with the datapath it ran on as JSON to `path`.
+    pub fn write_json(&self, path: &Path, datapath: DatapathConfig) -> Result<()> {
+        #[derive(Serialize)]
+        struct Out<'a> {
+            datapath: DatapathConfig,
+            #[serde(flatten)]
+            report: &'a CheckReport,
+        }
+        write_json(
+            path,
+            &Out {
+                datapath,
+                report: self,
+            },
+        )
+    }
 }

@@ -1,4 +1,4 @@
-//! SVG bar charts of workload per ICU (plotters, SVG backend only), like the paper's
+//! The partition's chart family: bar charts of workload per ICU, like the paper's
 //! Figs 12.8–12.13: for each section (cluster), a filled bar of the actual intersection
 //! computations of the high-resolution pass beside a lighter bar of the low-resolution
 //! prediction, and a line at the mean actual workload (max over mean is the imbalance).
@@ -6,6 +6,8 @@
 //! **Invariant:** the SVG depends only on the numbers drawn (no timestamps), so a figure is
 //! byte-identical when its run is.
 
+use super::{draw_err, palette, si, SiStyle};
+use crate::error::Result;
 use plotters::prelude::*;
 
 /// One panel: a bar pair per ICU.
@@ -18,41 +20,24 @@ pub struct Panel {
     pub predicted: Vec<u64>,
 }
 
-const ACTUAL: RGBColor = RGBColor(31, 119, 180);
-const PREDICTED: RGBColor = RGBColor(174, 199, 232);
-const MEAN: RGBColor = RGBColor(214, 39, 40);
-
-/// `v` with an SI suffix: 1234567 → "1.23M".
-fn si(v: f64) -> String {
-    let a = v.abs();
-    if a >= 1e9 {
-        format!("{:.3}G", v / 1e9)
-    } else if a >= 1e6 {
-        format!("{:.3}M", v / 1e6)
-    } else if a >= 1e3 {
-        format!("{:.3}k", v / 1e3)
-    } else {
-        format!("{v:.0}")
-    }
-    .replace(".000", "")
-}
+const ACTUAL: RGBColor = palette::BLUE;
+const PREDICTED: RGBColor = palette::LIGHT_BLUE;
+const MEAN: RGBColor = palette::RED;
 
 /// A figure of `panels` side by side under `caption`, as SVG text.
-pub fn workload_svg(caption: &str, panels: &[Panel]) -> Result<String, String> {
+pub fn workload_svg(caption: &str, panels: &[Panel]) -> Result<String> {
     let n = panels.len().max(1);
     let (w, h) = ((440 * n as u32).max(680), 420u32);
     let mut out = String::new();
     {
         let root = SVGBackend::with_string(&mut out, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| e.to_string())?;
-        let body = root
-            .titled(caption, ("sans-serif", 17))
-            .map_err(|e| e.to_string())?;
+        root.fill(&WHITE).map_err(draw_err)?;
+        let body = root.titled(caption, ("sans-serif", 17)).map_err(draw_err)?;
         let areas = body.split_evenly((1, n));
         for (area, p) in areas.iter().zip(panels) {
-            draw_panel(area, p).map_err(|e| e.to_string())?;
+            draw_panel(area, p).map_err(draw_err)?;
         }
-        root.present().map_err(|e| e.to_string())?;
+        root.present().map_err(draw_err)?;
     }
     Ok(out)
 }
@@ -60,7 +45,7 @@ pub fn workload_svg(caption: &str, panels: &[Panel]) -> Result<String, String> {
 fn draw_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, plotters::coord::Shift>,
     p: &Panel,
-) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let n = p.actual.len().max(1);
     let top = p
         .actual
@@ -93,7 +78,7 @@ fn draw_panel<DB: DrawingBackend>(
                 String::new()
             }
         })
-        .y_label_formatter(&|y| si(*y))
+        .y_label_formatter(&|y| si(*y, SiStyle::WORKLOAD))
         .x_desc("ICU (section)")
         .y_desc("intersection computations")
         .label_style(("sans-serif", 12))
@@ -135,14 +120,6 @@ fn draw_panel<DB: DrawingBackend>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn si_suffixes() {
-        assert_eq!(si(0.0), "0");
-        assert_eq!(si(999.0), "999");
-        assert_eq!(si(1500.0), "1.500k");
-        assert_eq!(si(2_000_000.0), "2M");
-    }
 
     #[test]
     fn an_svg_with_every_bar() {

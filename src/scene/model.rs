@@ -1,21 +1,16 @@
-//! Scenes: planar convex patches (triangles and quads) with emission and reflectance, read
-//! from JSON (or OBJ through `obj`), validated with errors that name the file and the patch.
+//! The scene model: planar convex patches (triangles and quads) with emission and
+//! reflectance, the scene, its JSON form, and validation with errors that name the file and
+//! the patch. The polygon geometry is checked by [`super::polygon`].
 
-use crate::error::{write_atomic, Error, Result};
+use super::polygon::{self, MAX_COORD};
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// Most patches a scene may hold: patch ids are 24-bit in the hardware's records.
 pub const MAX_PATCHES: usize = 1 << 24;
-
-/// Relative tolerance of the planarity check: a vertex may lie off the patch's plane by this
-/// fraction of the patch's diameter (rounding in generated scenes is ~1e-16).
-pub const PLANARITY_TOL: f64 = 1e-9;
-
-/// Largest coordinate magnitude a scene may use: beyond it, areas and plane equations
-/// overflow or lose all precision.
-pub const MAX_COORD: f64 = 1e12;
 
 /// A grey value or an RGB triple; grey `g` means `[g, g, g]`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -101,14 +96,7 @@ impl Patch {
     /// Newell's normal: twice the vector area; its length is twice the polygon's area and it
     /// points to the front side (counter-clockwise vertices).
     pub fn area_vector(&self) -> DVec3 {
-        let v = &self.vertices;
-        let mut n = DVec3::ZERO;
-        for i in 0..v.len() {
-            let a = v[i];
-            let b = v[(i + 1) % v.len()];
-            n += a.cross(b);
-        }
-        n
+        polygon::area_vector(&self.vertices)
     }
 
     /// The unit normal of the front side.
@@ -128,17 +116,12 @@ impl Patch {
 
     /// The longest distance between two vertices.
     pub fn diameter(&self) -> f64 {
-        let v = &self.vertices;
-        let mut d: f64 = 0.0;
-        for i in 0..v.len() {
-            for j in i + 1..v.len() {
-                d = d.max(v[i].distance(v[j]));
-            }
-        }
-        d
+        polygon::diameter(&self.vertices)
     }
 
-    /// Checks the patch's own geometry; `Err` holds what is wrong (without file or id).
+    /// Checks the patch: 3 or 4 vertices, finite and in range ([`polygon::check_points`]),
+    /// emission and reflectance, then the shape ([`polygon::check_shape`]: planar, convex,
+    /// nonzero area). `Err` holds what is wrong (without file or id).
     pub fn check(&self) -> std::result::Result<(), String> {
         let v = &self.vertices;
         if v.len() < 3 {
@@ -153,20 +136,7 @@ impl Patch {
                 v.len()
             ));
         }
-        for (k, p) in v.iter().enumerate() {
-            if !p.is_finite() {
-                return Err(format!(
-                    "vertex {k} is not a finite point: [{}, {}, {}]",
-                    p.x, p.y, p.z
-                ));
-            }
-            if p.abs().max_element() > MAX_COORD {
-                return Err(format!(
-                    "vertex {k} [{}, {}, {}] is out of range (coordinates at most {MAX_COORD:e} in magnitude)",
-                    p.x, p.y, p.z
-                ));
-            }
-        }
+        polygon::check_points(v)?;
         for (what, s) in [
             ("emission", self.emission),
             ("reflectance", self.reflectance),
@@ -185,46 +155,7 @@ impl Patch {
                 self.reflectance.rgb()
             ));
         }
-        let diam = self.diameter();
-        for i in 0..v.len() {
-            if v[i] == v[(i + 1) % v.len()] {
-                return Err(format!(
-                    "has zero area: vertices {i} and {} coincide",
-                    (i + 1) % v.len()
-                ));
-            }
-        }
-        let av = self.area_vector();
-        let area = 0.5 * av.length();
-        if area <= 1e-12 * diam * diam || area == 0.0 {
-            return Err(format!(
-                "has zero area ({area:e}): its vertices are collinear"
-            ));
-        }
-        let n = av / av.length();
-        let d0 = n.dot(v[0]);
-        for (k, p) in v.iter().enumerate() {
-            let off = (n.dot(*p) - d0).abs();
-            if off > PLANARITY_TOL * diam {
-                return Err(format!(
-                    "is not planar: vertex {k} lies {off:e} off the plane of the others (tolerance {:e})",
-                    PLANARITY_TOL * diam
-                ));
-            }
-        }
-        for i in 0..v.len() {
-            let a = v[i];
-            let b = v[(i + 1) % v.len()];
-            let c = v[(i + 2) % v.len()];
-            let turn = (b - a).cross(c - b).dot(n);
-            if turn <= 1e-12 * diam * diam {
-                return Err(format!(
-                    "is not convex: the turn at vertex {} goes the wrong way or is straight",
-                    (i + 1) % v.len()
-                ));
-            }
-        }
-        Ok(())
+        polygon::check_shape(v)
     }
 }
 
@@ -278,20 +209,6 @@ impl Scene {
             }
         }
         Ok(())
-    }
-
-    /// Reads a scene by its extension: `.json` (the schema in README.md) or `.obj`
-    /// (Wavefront, see [`crate::obj`]), and validates it.
-    pub fn load(path: &Path) -> Result<Scene> {
-        let ext = path
-            .extension()
-            .map(|e| e.to_string_lossy().to_ascii_lowercase());
-        match ext.as_deref() {
-            Some("obj") => {
-                crate::obj::import(path, &crate::obj::ImportOptions::default()).map(|(s, _)| s)
-            }
-            _ => Scene::load_json(path),
-        }
     }
 
     /// Reads and validates a JSON scene.

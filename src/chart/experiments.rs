@@ -1,34 +1,57 @@
-//! SVG charts of the experiments (plotters, SVG backend only, the style of `sweep` and
-//! `partition::chart`): efficiency bars with and without balancing, efficiency and cycles
+//! The experiments' chart family: efficiency bars with and without balancing, efficiency and cycles
 //! against work-item size (Fig 12.14), speedup against ICUs beside the ideal and the resource
 //! bound (Fig 12.15).
 //!
 //! **Invariant:** an SVG depends only on the numbers drawn (no timestamps), so a figure is
 //! byte-identical when its runs are.
 
-use super::{Point, SpeedupRow, WorkItemRows};
-use crate::error::{Error, Result};
+use super::{draw_err, palette, si, SiStyle};
+use crate::error::Result;
 use plotters::prelude::*;
 
-const ON: RGBColor = RGBColor(31, 119, 180);
-const OFF: RGBColor = RGBColor(255, 127, 14);
-const BOUND: RGBColor = RGBColor(44, 160, 44);
-const IDEAL: RGBColor = RGBColor(80, 80, 80);
+const ON: RGBColor = palette::BLUE;
+const OFF: RGBColor = palette::ORANGE;
+const BOUND: RGBColor = palette::GREEN;
+const IDEAL: RGBColor = palette::GREY;
 
-fn draw_err<E: std::fmt::Debug>(e: E) -> Error {
-    Error::Check(format!("drawing a chart: {e:?}"))
+/// One run of the efficiency chart.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    pub ratio: usize,
+    /// Rays of the run (the ratio's caption).
+    pub rays: usize,
+    pub clusters: u32,
+    pub balance: bool,
+    pub pipeline_efficiency: f64,
 }
 
-/// `v` with an SI suffix: 1234567 → "1.23M".
-fn si(v: f64) -> String {
-    let a = v.abs();
-    if a >= 1e6 {
-        format!("{:.2}M", v / 1e6)
-    } else if a >= 1e3 {
-        format!("{:.0}k", v / 1e3)
-    } else {
-        format!("{v:.0}")
-    }
+/// One run of the work-item chart.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorkItemPoint {
+    pub work_item_jobs: u32,
+    pub pipeline_efficiency: f64,
+    pub cycles: u64,
+    /// The run's lower bound on cycles and the resource that sets it.
+    pub bound_cycles: u64,
+    pub binding: &'static str,
+}
+
+/// The work-item chart's runs: the static machine and the balanced runs by size.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WorkItemRows {
+    pub off: WorkItemPoint,
+    pub on: Vec<WorkItemPoint>,
+}
+
+/// One run of the speedup chart.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpeedupRow {
+    pub clusters: u32,
+    pub balance: bool,
+    pub speedup: f64,
+    pub bound_speedup: f64,
+    pub speedup_same_work: f64,
+    pub bound_speedup_same_work: f64,
 }
 
 /// Pipeline efficiency with balancing off and on: one panel per ratio, a bar pair per
@@ -176,7 +199,7 @@ pub fn work_item_svg(title: &str, rows: &WorkItemRows) -> Result<String> {
         let body = root.titled(title, ("sans-serif", 17)).map_err(draw_err)?;
         let (top, bottom) = body.split_vertically(360);
         // x: log2 of the size, labelled with the size.
-        let lg = |p: &Point| (p.work_item_jobs.max(1) as f64).log2();
+        let lg = |p: &WorkItemPoint| (p.work_item_jobs.max(1) as f64).log2();
         let (lo, hi) = (
             rows.on.first().map_or(0.0, lg) - 0.5,
             rows.on.last().map_or(7.0, lg) + 0.5,
@@ -254,7 +277,7 @@ pub fn work_item_svg(title: &str, rows: &WorkItemRows) -> Result<String> {
             .x_desc("work-item size (jobs)")
             .y_desc("cycles")
             .x_label_formatter(&size_label)
-            .y_label_formatter(&|y| si(*y))
+            .y_label_formatter(&|y| si(*y, SiStyle::CYCLES))
             .label_style(("sans-serif", 12))
             .draw()
             .map_err(draw_err)?;
@@ -276,12 +299,12 @@ pub fn work_item_svg(title: &str, rows: &WorkItemRows) -> Result<String> {
             &mut cyc,
             rows.on
                 .iter()
-                .map(|p| (lg(p), p.bound.cycles() as f64))
+                .map(|p| (lg(p), p.bound_cycles as f64))
                 .collect(),
             BOUND,
             &format!(
                 "resource bound (binds: {})",
-                rows.on.first().map_or("-", |p| p.bound.binding().name())
+                rows.on.first().map_or("-", |p| p.binding)
             ),
             false,
         )?;
@@ -305,7 +328,7 @@ pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
         root.fill(&WHITE).map_err(draw_err)?;
         let body = root.titled(title, ("sans-serif", 17)).map_err(draw_err)?;
         let panels = body.split_evenly((1, 2));
-        let pmax = rows.iter().map(|r| r.point.clusters).max().unwrap_or(1) as f64;
+        let pmax = rows.iter().map(|r| r.clusters).max().unwrap_or(1) as f64;
         type Pick = fn(&SpeedupRow) -> f64;
         let specs: [(&str, Pick, Pick); 2] = [
             (
@@ -348,21 +371,17 @@ pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
                 "ideal (P)",
                 false,
             )?;
-            let on: Vec<&SpeedupRow> = rows.iter().filter(|r| r.point.balance).collect();
+            let on: Vec<&SpeedupRow> = rows.iter().filter(|r| r.balance).collect();
             line(
                 &mut chart,
-                on.iter()
-                    .map(|r| (r.point.clusters as f64, bound(r)))
-                    .collect(),
+                on.iter().map(|r| (r.clusters as f64, bound(r))).collect(),
                 BOUND,
                 "resource bound, balancing on",
                 true,
             )?;
             line(
                 &mut chart,
-                on.iter()
-                    .map(|r| (r.point.clusters as f64, sp(r)))
-                    .collect(),
+                on.iter().map(|r| (r.clusters as f64, sp(r))).collect(),
                 ON,
                 "dynamic balancing",
                 true,
@@ -370,8 +389,8 @@ pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
             line(
                 &mut chart,
                 rows.iter()
-                    .filter(|r| !r.point.balance)
-                    .map(|r| (r.point.clusters as f64, sp(r)))
+                    .filter(|r| !r.balance)
+                    .map(|r| (r.clusters as f64, sp(r)))
                     .collect(),
                 OFF,
                 "static partitioning",

@@ -2,13 +2,15 @@
 //! sets — the paper's equal-angle `rings`, Malley's stratified cosine-weighted set, and
 //! plain random cosine-weighted rays — with the weights that make their sums form factors.
 
-use crate::scene::Patch;
-use crate::trace::Ray;
+use crate::error::{Error, Result};
+use crate::reference::tracer::Ray;
+use crate::scene::{Patch, Scene};
 use glam::DVec3;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use std::f64::consts::{FRAC_PI_2, PI};
+use std::path::Path;
 
 /// How ray directions are chosen over the hemisphere.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
@@ -22,9 +24,6 @@ pub enum Directions {
     /// Independent cosine-weighted directions; weight 1/N (binomial error).
     Random,
 }
-
-/// The paper's ray count: 20 rings of Δθ = 4.5° plus the zenith.
-pub const PAPER_RAYS: usize = 969;
 
 /// Relative pull of origins towards the patch centroid, keeping them clear of the patch's
 /// edges (so no origin lies on an edge shared with a neighbour).
@@ -282,9 +281,65 @@ pub fn hemisphere_rays(
     RaySet { rays, weights }
 }
 
+/// Most rays one run may cast.
+pub const MAX_RAYS: usize = 100_000_000;
+
+/// Checks a source id and a ray count against the scene read from `file`: a source that
+/// does not exist is `Error::Input` at place `source`; a ray count outside 1..=[`MAX_RAYS`]
+/// is `Error::Param` `rays`.
+pub fn check_source_and_rays(scene: &Scene, file: &Path, source: u32, rays: usize) -> Result<()> {
+    if source as usize >= scene.patches.len() {
+        return Err(Error::input(
+            file,
+            "source",
+            format!(
+                "source patch {source} does not exist (the scene has patches 0..{})",
+                scene.patches.len() - 1
+            ),
+        ));
+    }
+    if rays == 0 || rays > MAX_RAYS {
+        return Err(Error::param(
+            "rays",
+            format!("{rays} is out of range (1..={MAX_RAYS})"),
+        ));
+    }
+    Ok(())
+}
+
+/// Which rays a job casts: `rays` of `directions` from patch `source`, origins stratified
+/// over the patch, seeded by `seed`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RaySpec {
+    pub source: u32,
+    pub rays: usize,
+    pub directions: Directions,
+    pub seed: u64,
+}
+
+impl RaySpec {
+    /// Checks the source and the ray count against `scene` (read from `file`), see
+    /// [`check_source_and_rays`].
+    pub fn validate(&self, scene: &Scene, file: &Path) -> Result<()> {
+        check_source_and_rays(scene, file, self.source, self.rays)
+    }
+
+    /// The ray set over the source patch of `scene` (validated).
+    pub fn rays(&self, scene: &Scene) -> RaySet {
+        hemisphere_rays(
+            &scene.patches[self.source as usize],
+            self.rays,
+            self.directions,
+            Origins::Patch,
+            self.seed,
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::paper::PAPER_RAYS;
 
     #[test]
     fn paper_rings_are_969_with_unit_weight() {

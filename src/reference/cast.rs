@@ -1,11 +1,14 @@
 //! Form factors by the float reference: cast a ray set from a source patch through the
 //! tracer, sum the weights per hit patch, count escapes; results as JSON.
 
+use crate::error::Result;
 use crate::progress::Progress;
-use crate::rays::{Directions, RaySet};
-use crate::trace::{Hit, TraceCounts, Tracer};
+use crate::reference::rays::{Directions, RaySet, RaySpec};
+use crate::reference::tracer::{Hit, TraceCounts, Tracer};
+use crate::scene::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
+use std::path::Path;
 
 /// One form factor F(source → patch).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -154,4 +157,19 @@ pub fn run(tracer: &Tracer, set: &RaySet, info: &RunInfo, show_progress: bool) -
         wall_s,
         rays_per_s: set.len() as f64 / wall_s.max(1e-9),
     }
+}
+
+/// The `reference` job: checks `spec` against `scene` (read from `file`), builds the tracer
+/// on cells of `cell` and casts the rays with a progress bar.
+pub fn run_scene(scene: &Scene, file: &Path, spec: &RaySpec, cell: f64) -> Result<ReferenceReport> {
+    spec.validate(scene, file)?;
+    let tracer = Tracer::new(scene, cell)?;
+    let set = spec.rays(scene);
+    let info = RunInfo {
+        scene: &scene.name,
+        source: spec.source,
+        directions: spec.directions,
+        seed: spec.seed,
+    };
+    Ok(run(&tracer, &set, &info, true))
 }

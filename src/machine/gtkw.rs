@@ -27,8 +27,9 @@
 //!   a string `scope.name`, and a wider wire `scope.name[msb:lsb]` — so vectors carry their
 //!   `[w-1:0]` range here, exactly as `vcd_out` declares it.
 
-use crate::error::{write_atomic, Result};
-use crate::vcd_out::{Signal, SignalKind, VcdSummary};
+use crate::error::Result;
+use crate::machine::vcd::{Signal, SignalKind, VcdSummary};
+use crate::output::write_atomic;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

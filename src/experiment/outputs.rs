@@ -1,9 +1,14 @@
-//! `shellsim experiment efficiency|workitem|speedup` and `shellsim paper`: arguments and jobs.
+//! What an experiment writes: its CSV, its SVG (drawn by [`crate::chart::experiments`]) and
+//! a short summary for the terminal, for `shellsim experiment` and `shellsim paper`.
 
-use super::{chart, stem, Point, SpeedupRow, WorkItemRows, Workload};
-use crate::error::{write_atomic, Result};
-use crate::scene::Scene;
-use std::path::{Path, PathBuf};
+use super::{stem, Point, SpeedupRow, WorkItemRows, Workload};
+use crate::chart::experiments as chart;
+use crate::error::Result;
+use crate::output::write_atomic;
+use crate::paper::{
+    PAPER_RATIO, RATIOS, SECTIONS, SPEEDUP_CLUSTERS, WORK_ITEMS, WORK_ITEM_CLUSTERS,
+};
+use std::path::Path;
 
 /// Which experiment.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,35 +32,6 @@ impl Which {
     }
 }
 
-/// Arguments of `shellsim experiment`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct ExperimentArgs {
-    /// Which experiment.
-    #[arg(value_enum)]
-    pub which: Which,
-    /// The scene file (.json or .obj).
-    #[arg(long)]
-    pub scene: PathBuf,
-    /// Machine configuration (TOML); default hw/configs/paper.toml (built in). Clusters,
-    /// balancing and the work-item size are set per run; everything else is kept.
-    #[arg(long)]
-    pub hw: Option<PathBuf>,
-    /// The source patch id.
-    #[arg(long, default_value_t = 0)]
-    pub source: u32,
-    /// Output directory: WHICH-SCENE.csv and WHICH-SCENE.svg.
-    #[arg(long, default_value = "out")]
-    pub out: PathBuf,
-}
-
-/// Arguments of `shellsim paper`.
-#[derive(clap::Args, Debug, Clone)]
-pub struct PaperArgs {
-    /// Output directory: report.md, the figures (SVG) and their data (CSV).
-    #[arg(long, default_value = "docs/paper")]
-    pub out: PathBuf,
-}
-
 /// The files one experiment writes, as text.
 pub struct Outputs {
     pub stem: String,
@@ -76,23 +52,12 @@ impl Outputs {
 /// Runs experiment `which` on `w` and renders its CSV and SVG.
 pub fn experiment(which: Which, w: &Workload) -> Result<Outputs> {
     match which {
-        Which::Efficiency => efficiency_outputs(
-            w,
-            &super::efficiency(w, &super::EFFICIENCY_CLUSTERS, &super::RATIOS)?,
-        ),
+        Which::Efficiency => efficiency_outputs(w, &super::efficiency(w, &SECTIONS, &RATIOS)?),
         Which::Workitem => work_item_outputs(
             w,
-            &super::work_item(
-                w,
-                super::WORK_ITEM_CLUSTERS,
-                super::PAPER_RATIO,
-                &super::WORK_ITEMS,
-            )?,
+            &super::work_item(w, WORK_ITEM_CLUSTERS, PAPER_RATIO, &WORK_ITEMS)?,
         ),
-        Which::Speedup => speedup_outputs(
-            w,
-            &super::speedup(w, &super::SPEEDUP_CLUSTERS, super::PAPER_RATIO)?,
-        ),
+        Which::Speedup => speedup_outputs(w, &super::speedup(w, &SPEEDUP_CLUSTERS, PAPER_RATIO)?),
     }
 }
 
@@ -124,7 +89,7 @@ pub fn efficiency_outputs(w: &Workload, pts: &[Point]) -> Result<Outputs> {
     Ok(Outputs {
         stem: stem_of(Which::Efficiency, w),
         csv: super::points_csv(pts),
-        svg: chart::efficiency_svg(&title, pts)?,
+        svg: efficiency_svg(&title, pts)?,
         summary,
     })
 }
@@ -154,7 +119,7 @@ pub fn work_item_outputs(w: &Workload, rows: &WorkItemRows) -> Result<Outputs> {
     Ok(Outputs {
         stem: stem_of(Which::Workitem, w),
         csv: super::work_item_csv(rows),
-        svg: chart::work_item_svg(&title, rows)?,
+        svg: work_item_svg(&title, rows)?,
         summary,
     })
 }
@@ -183,36 +148,25 @@ pub fn speedup_outputs(w: &Workload, rows: &[SpeedupRow]) -> Result<Outputs> {
     Ok(Outputs {
         stem: stem_of(Which::Speedup, w),
         csv: super::speedup_csv(rows),
-        svg: chart::speedup_svg(&title, rows)?,
+        svg: speedup_svg(&title, rows)?,
         summary,
     })
 }
 
-/// Runs `shellsim experiment`.
-pub fn run_experiment(a: &ExperimentArgs) -> Result<()> {
-    let scene = Scene::load(&a.scene)?;
-    let base = crate::cli::machine_config(a.hw.as_deref())?;
-    let w = Workload {
-        scene: &scene,
-        file: &a.scene,
-        source: a.source,
-        base: &base,
-    };
-    let out = experiment(a.which, &w)?;
-    print!("{}", out.summary);
-    out.write(&a.out)?;
-    println!("wrote {}/{}.csv and .svg", a.out.display(), out.stem);
-    Ok(())
+/// The efficiency chart of `points` (see [`chart::efficiency_svg`]).
+pub fn efficiency_svg(title: &str, points: &[Point]) -> Result<String> {
+    chart::efficiency_svg(title, &points.iter().map(Point::chart).collect::<Vec<_>>())
 }
 
-/// Runs `shellsim paper`.
-pub fn run_paper(a: &PaperArgs) -> Result<()> {
-    let start = std::time::Instant::now();
-    super::paper::paper(&a.out)?;
-    println!(
-        "wrote {}/report.md ({:.0} s)",
-        a.out.display(),
-        start.elapsed().as_secs_f64()
-    );
-    Ok(())
+/// The work-item chart of `rows` (see [`chart::work_item_svg`]).
+pub fn work_item_svg(title: &str, rows: &WorkItemRows) -> Result<String> {
+    chart::work_item_svg(title, &rows.chart())
+}
+
+/// The speedup chart of `rows` (see [`chart::speedup_svg`]).
+pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
+    chart::speedup_svg(
+        title,
+        &rows.iter().map(SpeedupRow::chart).collect::<Vec<_>>(),
+    )
 }

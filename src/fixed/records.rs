@@ -3,12 +3,12 @@
 //! format is an error naming it, never a silent wrap.
 
 use crate::error::{Error, Result};
-use crate::grid::polygon_touches_box;
+use crate::reference::grid::polygon_touches_box;
+use crate::reference::tracer::Ray;
 use crate::scene::{Aabb, Scene};
-use crate::trace::Ray;
 use glam::DVec3;
 use shellsim_hw::config::{DatapathConfig, Formats};
-use shellsim_hw::record::{CellTable, PatchRecord, RayRecord, PATCH_ID_BITS};
+use shellsim_hw::datapath::record::{CellTable, PatchRecord, RayRecord, PATCH_ID_BITS};
 use shellsim_hw::FixedScene;
 use std::path::Path;
 
@@ -161,7 +161,7 @@ fn cell_table(
         dims[a] = n as u32;
     }
     let total = (dims[0] * dims[1] * dims[2]) as usize;
-    if total > crate::grid::MAX_CELLS {
+    if total > crate::reference::grid::MAX_CELLS {
         return Err(Error::input(here, "cell size", format!("{total} cells")));
     }
     let lsb = f.coord.lsb();

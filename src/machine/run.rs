@@ -1,22 +1,26 @@
-//! `shellsim run`: partition, simulate the cycle-level machine, check every ray against the
-//! untimed fixed-point model, and report statistics (JSON, units in the names).
+//! A run of the cycle-level machine (`shellsim run`): partition, convert to records
+//! ([`prepare`]), simulate, check every ray against the untimed fixed-point model and gather
+//! statistics ([`simulate`]; JSON, units in the names), with the waveform and the report
+//! written beside it ([`execute`]).
 
 use crate::error::{Error, Result};
-use crate::fixed::HostFixed;
+use crate::fixed::records::HostFixed;
+use crate::machine::vcd::{VcdOptions, VcdWriter};
+use crate::output::write_json;
 use crate::partition::{self, Config as PartitionConfig};
-use crate::trace::Tracer;
+use crate::reference::tracer::Tracer;
 use crate::Scene;
 use serde::Serialize;
-use shellsim_hw::ctu::CtuStats;
-use shellsim_hw::icu::IcuStats;
+use shellsim_hw::config::MachineConfig;
 use shellsim_hw::machine::{Machine, TickOrder};
-use shellsim_hw::machine_config::MachineConfig;
-use shellsim_hw::memory::MemoryStats;
-use shellsim_hw::patch_buffer::PatchBufferStats;
-use shellsim_hw::ray_buffer::RayBufferStats;
 use shellsim_hw::trace::Probe;
+use shellsim_hw::units::ctu::CtuStats;
+use shellsim_hw::units::icu::IcuStats;
+use shellsim_hw::units::memory::MemoryStats;
+use shellsim_hw::units::patch_buffer::PatchBufferStats;
+use shellsim_hw::units::ray_buffer::RayBufferStats;
 use shellsim_hw::{Exceptions, FixedHit, RayRecord};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -24,7 +28,6 @@ pub struct RunSpec {
     pub source: u32,
     /// Hi_Low_Ratio: N_high = ratio × 969.
     pub ratio: usize,
-    pub cell: f64,
     pub order: TickOrder,
 }
 
@@ -51,7 +54,7 @@ pub struct RunStats {
     pub clusters: Vec<ClusterStats>,
     pub memory: MemoryStats,
     /// Dynamic balancing (all zero when it is off).
-    pub balancer: shellsim_hw::balancer::BalancerStats,
+    pub balancer: shellsim_hw::units::balancer::BalancerStats,
     pub memory_requests: u64,
     /// Port-busy cycles over all cycles.
     pub memory_utilization: f64,
@@ -93,7 +96,7 @@ pub fn prepare(
     spec: &RunSpec,
 ) -> Result<Prepared> {
     let m = &cfg.machine;
-    let tracer = Tracer::new(scene, spec.cell)?;
+    let tracer = Tracer::new(scene, cfg.machine.cell_size)?;
     let mut pcfg = PartitionConfig::paper(
         spec.source,
         m.clusters as usize,
@@ -102,10 +105,10 @@ pub fn prepare(
     );
     pcfg.shell_radius = m.shell_radius;
     pcfg.subshell_max = m.subshell_max_patches as usize;
-    pcfg.cell_size = spec.cell;
+    pcfg.cell_size = cfg.machine.cell_size;
     pcfg.validate(scene, file)?;
     let part = partition::partition(scene, &tracer, &pcfg);
-    let host = HostFixed::new(scene, file, cfg.datapath, spec.cell)?;
+    let host = HostFixed::new(scene, file, cfg.datapath, cfg.machine.cell_size)?;
     let records: Vec<RayRecord> = part
         .high_rays
         .rays
@@ -259,4 +262,97 @@ fn ratio(a: u64, b: u64) -> f64 {
     } else {
         a as f64 / b as f64
     }
+}
+
+impl RunStats {
+    /// `Err(Error::Check)` when some ray's result differs from the untimed fixed-point
+    /// model's.
+    pub fn verdict(&self) -> Result<()> {
+        if self.mismatches_vs_fixed > 0 {
+            return Err(Error::Check(format!(
+                "{} rays differ from the fixed-point model",
+                self.mismatches_vs_fixed
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// The waveform a run wrote: the VCD and the GTKWave save file beside it.
+#[derive(Clone, Debug)]
+pub struct Waveform {
+    pub vcd: PathBuf,
+    pub signals: usize,
+    pub bytes: u64,
+    pub gtkw: PathBuf,
+}
+
+/// What [`execute`] produced.
+#[derive(Clone, Debug)]
+pub struct Executed {
+    pub stats: RunStats,
+    pub waveform: Option<Waveform>,
+}
+
+/// Runs the machine ([`run`]), writing the VCD (+ .gtkw) and the JSON (configuration +
+/// statistics) when asked. The VCD streams into a temporary file; an error drops the
+/// writer, which removes it, so a failed run leaves no waveform behind. A VCD path whose
+/// GTKWave save file would be itself is `Error::Param` `vcd`.
+pub fn execute(
+    scene: &Scene,
+    file: &Path,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+    vcd: Option<(PathBuf, VcdOptions)>,
+    json: Option<&Path>,
+) -> Result<Executed> {
+    if let Some((p, _)) = &vcd {
+        if crate::machine::gtkw::path_for(p) == *p {
+            return Err(Error::param(
+                "vcd",
+                format!(
+                    "{}: the GTKWave save file would overwrite it; name it *.vcd",
+                    p.display()
+                ),
+            ));
+        }
+    }
+    let mut writer = match vcd {
+        Some((p, opts)) => Some(VcdWriter::create(&p, opts)?),
+        None => None,
+    };
+    let probe = writer.as_mut().map(|w| w as &mut dyn Probe);
+    let out = run(scene, file, cfg, spec, probe)?;
+    let waveform = match writer {
+        Some(w) => {
+            let summary = w.finish()?;
+            let gtkw = crate::machine::gtkw::path_for(&summary.path);
+            crate::machine::gtkw::write(&gtkw, &summary)?;
+            Some(Waveform {
+                vcd: summary.path.clone(),
+                signals: summary.signals.len(),
+                bytes: summary.bytes,
+                gtkw,
+            })
+        }
+        None => None,
+    };
+    if let Some(out_path) = json {
+        #[derive(serde::Serialize)]
+        struct Out<'a> {
+            config: MachineConfig,
+            stats: &'a RunStats,
+        }
+        write_json(
+            out_path,
+            &Out {
+                config: *cfg,
+                stats: &out.stats,
+            },
+        )?;
+    }
+    Ok(Executed {
+        stats: out.stats,
+        waveform,
+    })
 }

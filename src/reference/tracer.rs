@@ -19,7 +19,7 @@
 //! one side only (a top-left fill rule). A ray through an edge or vertex shared by patches
 //! that tile a surface therefore hits exactly one of them: no leaks, no double hits.
 
-use crate::grid::Grid;
+use crate::reference::grid::Grid;
 use crate::scene::{Patch, Scene};
 use glam::DVec3;
 
@@ -981,7 +981,7 @@ mod tests {
     /// t, triangles and rays through shared edges and vertices included.
     #[test]
     fn tracer_test_equals_patch_intersect() {
-        use crate::gen::{generate, Kind, DEFAULT_SEED};
+        use crate::scene::gen::{generate, Kind, DEFAULT_SEED};
         use rand::{Rng, SeedableRng};
         let scene = generate(Kind::StressEdges, DEFAULT_SEED);
         let tr = Tracer::new(&scene, 0.05).unwrap();

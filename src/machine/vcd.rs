@@ -6,7 +6,7 @@
 //! `icu`, `stage_3`, …), a `wire` of the reported width for `bits` (with an explicit
 //! `[w-1:0]` range when wider than one bit, so the name GTKWave gives it can be read off the
 //! declaration), a `string` variable for `text` (FSM states), and for `fixed` a `wire` of
-//! `width` bits holding the raw two's-complement value — the .gtkw file (`crate::gtkw`) shows
+//! `width` bits holding the raw two's-complement value — the .gtkw file (`crate::machine::gtkw`) shows
 //! it as a decimal through GTKWave's fixed-point shift.
 //!
 //! **Time.** `$timescale 1 ns`: one time unit is one clock cycle and `#t` is the cycle
@@ -29,6 +29,7 @@
 //! date, so the same run gives a byte-identical file.
 
 use crate::error::{Error, Result};
+use crate::output::TempFile;
 use shellsim_hw::trace::Probe;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -248,7 +249,9 @@ struct Slot {
 /// `Machine::run` as the probe, then call [`VcdWriter::finish`].
 pub struct VcdWriter {
     path: PathBuf,
-    tmp: PathBuf,
+    /// The temporary file beside `path`; dropped unfinished, it is removed, so no
+    /// half-written VCD is left.
+    tmp: Option<TempFile>,
     out: Option<vcd::Writer<BufWriter<File>>>,
     opts: VcdOptions,
     slots: Vec<Slot>,
@@ -276,20 +279,10 @@ pub struct VcdWriter {
 impl VcdWriter {
     /// A writer streaming to a temporary file beside `path` (created with its directory).
     pub fn create(path: &Path, opts: VcdOptions) -> Result<Self> {
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
-        std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_else(|| "out.vcd".into());
-        let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-        let f = File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        let (tmp, f) = TempFile::create(path)?;
         Ok(VcdWriter {
             path: path.to_path_buf(),
-            tmp,
+            tmp: Some(tmp),
             out: Some(vcd::Writer::new(BufWriter::with_capacity(1 << 16, f))),
             opts,
             slots: Vec::new(),
@@ -330,17 +323,9 @@ impl VcdWriter {
             Ok(bytes)
         })();
         drop(w);
-        let bytes = match done {
-            Ok(b) => b,
-            Err(e) => {
-                let _ = std::fs::remove_file(&self.tmp);
-                return Err(Error::io(&self.tmp, e));
-            }
-        };
-        if let Err(e) = std::fs::rename(&self.tmp, &self.path) {
-            let _ = std::fs::remove_file(&self.tmp);
-            return Err(Error::io(&self.path, e));
-        }
+        let tmp = self.tmp.take().expect("finish runs once");
+        let bytes = done.map_err(|e| Error::io(tmp.tmp_path(), e))?;
+        tmp.persist()?;
         let signals = self
             .declared
             .iter()
@@ -563,15 +548,6 @@ impl VcdWriter {
             write_value(w, &self.slots[i], &mut self.scratch)?;
         }
         Ok(())
-    }
-}
-
-impl Drop for VcdWriter {
-    /// An unfinished writer removes its temporary file: no half-written VCD is left.
-    fn drop(&mut self) {
-        if self.out.take().is_some() {
-            let _ = std::fs::remove_file(&self.tmp);
-        }
     }
 }
 

@@ -14,8 +14,9 @@
 //! the one-number form `Kd r` of `.mtl` colours to `Kd r r r` (the MTL spec's meaning),
 //! which `tobj` would otherwise panic on.
 
+use super::model::{Aabb, Patch, Scene, Spectrum};
+use super::polygon;
 use crate::error::{Error, Result};
-use crate::scene::{Aabb, Patch, Scene, Spectrum, PLANARITY_TOL};
 use glam::DVec3;
 use std::cell::RefCell;
 use std::path::Path;
@@ -340,7 +341,10 @@ pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)
                 continue;
             }
             let n = arity - 2;
-            check_polygon(&vertices).map_err(|what| {
+            // A face split into a fan must be planar and strictly convex: the fan of any
+            // other polygon has triangles that overlap or face the wrong way, each of them
+            // valid alone.
+            polygon::check(&vertices).map_err(|what| {
                 let first = patches.len();
                 Error::input(
                     path,
@@ -424,71 +428,6 @@ fn name_face(e: Error, origins: &[Origin]) -> Error {
         }
         other => other,
     }
-}
-
-/// Checks that a face of more than 4 vertices is a planar, strictly convex polygon, which
-/// is what makes its triangle fan a faithful split (the fan of a non-convex or non-planar
-/// polygon has triangles that overlap or face the wrong way, each of them valid alone).
-fn check_polygon(v: &[DVec3]) -> std::result::Result<(), String> {
-    for (k, p) in v.iter().enumerate() {
-        if !p.is_finite() {
-            return Err(format!(
-                "vertex {k} is not a finite point: [{}, {}, {}]",
-                p.x, p.y, p.z
-            ));
-        }
-    }
-    let n = v.len();
-    for i in 0..n {
-        if v[i] == v[(i + 1) % n] {
-            return Err(format!(
-                "has zero area: vertices {i} and {} coincide",
-                (i + 1) % n
-            ));
-        }
-    }
-    let poly = Patch::new(v.to_vec(), 0.0, 0.0);
-    let diam = poly.diameter();
-    let av = poly.area_vector();
-    let area = 0.5 * av.length();
-    if area.is_nan() || area <= 1e-12 * diam * diam {
-        return Err(format!(
-            "has zero area ({area:e}): its vertices are collinear"
-        ));
-    }
-    let normal = av / av.length();
-    let d0 = normal.dot(v[0]);
-    for (k, p) in v.iter().enumerate() {
-        let off = (normal.dot(*p) - d0).abs();
-        if off > PLANARITY_TOL * diam {
-            return Err(format!(
-                "is not planar: vertex {k} lies {off:e} off the plane of the others (tolerance {:e})",
-                PLANARITY_TOL * diam
-            ));
-        }
-    }
-    let mut winding = 0.0;
-    for i in 0..n {
-        let a = v[i];
-        let b = v[(i + 1) % n];
-        let c = v[(i + 2) % n];
-        let (e1, e2) = (b - a, c - b);
-        let turn = e1.cross(e2).dot(normal);
-        if turn <= 1e-12 * diam * diam {
-            return Err(format!(
-                "is not convex: the turn at vertex {} goes the wrong way or is straight",
-                (i + 1) % n
-            ));
-        }
-        winding += turn.atan2(e1.dot(e2));
-    }
-    let turns = winding / std::f64::consts::TAU;
-    if (turns - 1.0).abs() > 1e-6 {
-        return Err(format!(
-            "is not convex: its edges wind {turns:.0} times around (a star polygon)"
-        ));
-    }
-    Ok(())
 }
 
 #[cfg(test)]

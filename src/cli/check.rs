@@ -1,0 +1,47 @@
+//! `shellsim check`: the float reference against the untimed fixed-point model on the same
+//! rays.
+
+use super::args::DatapathArgs;
+use super::reference::ReferenceArgs;
+use crate::error::Result;
+use crate::fixed::check::{check_scene, CheckReport};
+use crate::scene::Scene;
+
+/// Arguments of `shellsim check`.
+#[derive(clap::Args, Debug)]
+pub struct CheckArgs {
+    #[command(flatten)]
+    pub rays: ReferenceArgs,
+    #[command(flatten)]
+    pub datapath: DatapathArgs,
+}
+
+/// Runs `shellsim check`.
+pub fn run(a: &CheckArgs) -> Result<()> {
+    let r = &a.rays;
+    let scene = Scene::load(&r.scene)?;
+    let cfg = a.datapath.resolve()?;
+    let report = check_scene(&scene, &r.scene, cfg, &r.spec(), r.cell)?;
+    print_check(&report);
+    if let Some(out) = &r.json {
+        report.write_json(out, cfg)?;
+    }
+    report.verdict()
+}
+
+fn print_check(r: &CheckReport) {
+    println!("{}: {} rays, {} mismatches", r.format, r.rays, r.mismatches);
+    println!(
+        "  explained: {} overflow, {} near the origin, {} grazing, {} near an edge or vertex, {} tie in t; unexplained: {}",
+        r.classes.overflow, r.classes.near_origin, r.classes.grazing, r.classes.near_edge, r.classes.tie, r.unexplained_mismatches
+    );
+    println!(
+        "  t error: max {:.2} LSB, rms {:.2} LSB; form factors: max error {:.2e} (sampling error {:.2e})",
+        r.t_err_max_lsb, r.t_err_rms_lsb, r.ff_err_max, r.ff_sampling_err
+    );
+    let e = &r.exceptions;
+    println!(
+        "  exceptions: {} overflow, {} near-zero denominators, {} t saturated",
+        e.overflow, e.near_zero_denominator, e.t_saturated
+    );
+}

@@ -1,0 +1,41 @@
+//! `shellsim experiment efficiency|workitem|speedup`.
+
+use super::args::{MachineArgs, SceneSourceArgs};
+use crate::config;
+use crate::error::Result;
+use crate::experiment::outputs::{experiment, Which};
+use crate::experiment::Workload;
+use crate::scene::Scene;
+use std::path::PathBuf;
+
+/// Arguments of `shellsim experiment`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ExperimentArgs {
+    /// Which experiment.
+    #[arg(value_enum)]
+    pub which: Which,
+    #[command(flatten)]
+    pub input: SceneSourceArgs,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// Output directory: WHICH-SCENE.csv and WHICH-SCENE.svg.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+}
+
+/// Runs `shellsim experiment`.
+pub fn run(a: &ExperimentArgs) -> Result<()> {
+    let scene = Scene::load(&a.input.scene)?;
+    let base = config::load(&a.machine.source())?;
+    let w = Workload {
+        scene: &scene,
+        file: &a.input.scene,
+        source: a.input.source,
+        base: &base,
+    };
+    let out = experiment(a.which, &w)?;
+    print!("{}", out.summary);
+    out.write(&a.out)?;
+    println!("wrote {}/{}.csv and .svg", a.out.display(), out.stem);
+    Ok(())
+}

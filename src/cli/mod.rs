@@ -1,0 +1,71 @@
+//! Command-line interface: the argument types (clap) and the dispatch to one file per
+//! subcommand. Each subcommand parses, calls the library and prints; nothing in the
+//! library imports this module.
+
+pub mod args;
+pub mod check;
+pub mod default;
+pub mod experiment;
+pub mod paper;
+pub mod partition;
+pub mod reference;
+pub mod run;
+pub mod scene;
+pub mod sweep;
+
+use crate::error::Result;
+use clap::{Parser, Subcommand};
+
+/// Cycle-level model of the shelling ray-casting machine (Shen, Laarakker & Deprettere, 1992)
+/// for radiosity form factors. With no subcommand: the default job on built-in inputs.
+#[derive(Parser, Debug)]
+#[command(name = "shellsim", version, about, long_about = None)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Generate, inspect or import scenes.
+    #[command(subcommand)]
+    Scene(scene::SceneCmd),
+    /// Form factors from one source patch by the float reference tracer.
+    Reference(reference::ReferenceArgs),
+    /// The float reference against the untimed fixed-point model on the same rays.
+    Check(check::CheckArgs),
+    /// Partition, simulate the cycle-level machine, check against the fixed-point model.
+    Run(run::RunArgs),
+    /// Sweep a model parameter and chart accuracy against cost.
+    #[command(subcommand)]
+    Sweep(sweep::SweepCmd),
+    /// The shelling partition: low-resolution pass, sections and sectors, shells and
+    /// subshells, workloads predicted against actual, patch loads, schedule.
+    Partition(partition::PartitionArgs),
+    /// The paper's experiments on the machine: pipeline efficiency with and without
+    /// balancing, efficiency against work-item size, speedup against ICUs (CSV + SVG).
+    /// Clusters, balancing and the work-item size are set per run; the rest of the machine
+    /// configuration is kept.
+    Experiment(experiment::ExperimentArgs),
+    /// Regenerate every figure of the paper and a report (report.md) in one command.
+    Paper(paper::PaperArgs),
+}
+
+/// Runs the job the command line asks for; errors name the flags the user typed.
+pub fn run(cli: Cli) -> Result<()> {
+    dispatch(cli).map_err(args::name_flags)
+}
+
+fn dispatch(cli: Cli) -> Result<()> {
+    match cli.command {
+        Some(Command::Scene(c)) => scene::run(c),
+        Some(Command::Reference(a)) => reference::run(&a),
+        Some(Command::Check(a)) => check::run(&a),
+        Some(Command::Sweep(c)) => sweep::run(&c),
+        Some(Command::Partition(a)) => partition::run(&a),
+        Some(Command::Experiment(a)) => experiment::run(&a),
+        Some(Command::Paper(a)) => paper::run(&a),
+        Some(Command::Run(a)) => run::run(&a),
+        None => default::run(),
+    }
+}

@@ -1,0 +1,86 @@
+//! `shellsim reference`: form factors from one source patch by the float reference tracer.
+
+use crate::error::Result;
+use crate::output::write_json;
+use crate::paper::PAPER_RAYS;
+use crate::reference::cast::{self, ReferenceReport};
+use crate::reference::rays::{Directions, RaySpec};
+use crate::scene::Scene;
+use std::path::PathBuf;
+
+/// Arguments of `shellsim reference` (and the rays of `shellsim check`).
+#[derive(clap::Args, Debug)]
+pub struct ReferenceArgs {
+    /// The scene file (.json or .obj).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// The source patch id.
+    #[arg(long)]
+    pub source: u32,
+    /// Number of rays.
+    #[arg(long, default_value_t = PAPER_RAYS)]
+    pub rays: usize,
+    /// Direction set.
+    #[arg(long, value_enum, default_value_t = Directions::Rings)]
+    pub directions: Directions,
+    /// Seed of the origins (and of Malley/random directions).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Grid cell size.
+    #[arg(long, default_value_t = crate::config::built_in().machine.cell_size)]
+    pub cell: f64,
+    /// Write the full result as JSON here.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+impl ReferenceArgs {
+    /// The rays asked for.
+    pub fn spec(&self) -> RaySpec {
+        RaySpec {
+            source: self.source,
+            rays: self.rays,
+            directions: self.directions,
+            seed: self.seed,
+        }
+    }
+}
+
+/// Runs `shellsim reference`.
+pub fn run(a: &ReferenceArgs) -> Result<()> {
+    let scene = Scene::load(&a.scene)?;
+    let report = cast::run_scene(&scene, &a.scene, &a.spec(), a.cell)?;
+    print_reference(&report, &scene);
+    if let Some(out) = &a.json {
+        write_json(out, &report)?;
+    }
+    Ok(())
+}
+
+fn print_reference(r: &ReferenceReport, scene: &Scene) {
+    println!(
+        "{} from patch {}: {} {:?} rays, {} escaped, ΣF = {:.12}",
+        r.scene, r.source, r.rays, r.directions, r.escaped, r.weight_sum
+    );
+    println!(
+        "{:.3} s, {:.3} M rays/s, {:.1} cells and {:.1} patch tests per ray",
+        r.wall_s,
+        r.rays_per_s / 1e6,
+        r.cells_visited as f64 / r.rays as f64,
+        r.patch_tests as f64 / r.rays as f64
+    );
+    let mut top = r.form_factors.clone();
+    top.sort_by(|a, b| b.value.total_cmp(&a.value).then(a.patch.cmp(&b.patch)));
+    println!("{:>8}  {:>12}  {:>10}", "patch", "F", "area");
+    for f in top.iter().take(10) {
+        println!(
+            "{:>8}  {:>12.8}  {:>10.6}",
+            f.patch,
+            f.value,
+            scene.patches[f.patch as usize].area()
+        );
+    }
+    if top.len() > 10 {
+        println!("{:>8}  ({} more patches hit)", "…", top.len() - 10);
+    }
+}

@@ -1,0 +1,141 @@
+//! `shellsim scene gen|import|info`.
+
+use crate::error::Result;
+use crate::reference::tracer::Tracer;
+use crate::scene::{gen, obj, Aabb, Scene};
+use clap::Subcommand;
+use std::path::{Path, PathBuf};
+
+#[derive(Subcommand, Debug)]
+pub enum SceneCmd {
+    /// Generate a built-in scene (deterministic for a seed) and write it as JSON.
+    Gen {
+        /// Which scene.
+        #[arg(value_enum)]
+        kind: gen::Kind,
+        /// Seed of the random parts.
+        #[arg(long, default_value_t = gen::DEFAULT_SEED)]
+        seed: u64,
+        /// Output file (JSON).
+        #[arg(short, long)]
+        out: PathBuf,
+    },
+    /// Convert a Wavefront OBJ file into a validated JSON scene (faces with more than 4
+    /// vertices become triangle fans).
+    Import {
+        /// The OBJ file.
+        file: PathBuf,
+        /// Output file (JSON).
+        #[arg(short, long)]
+        out: PathBuf,
+        /// Scene bounds as lo_x,lo_y,lo_z,hi_x,hi_y,hi_z (default: the vertices' bounding box).
+        #[arg(long, value_parser = parse_bounds)]
+        bounds: Option<Aabb>,
+        /// Reflectance of faces without a material.
+        #[arg(long, default_value_t = 0.5)]
+        reflectance: f64,
+    },
+    /// Validate a scene (JSON or OBJ) and print its statistics.
+    Info {
+        /// The scene file (.json or .obj).
+        file: PathBuf,
+        /// Grid cell size for the grid statistics.
+        #[arg(long, default_value_t = crate::config::built_in().machine.cell_size)]
+        cell: f64,
+    },
+}
+
+/// Runs `shellsim scene ...`.
+pub fn run(c: SceneCmd) -> Result<()> {
+    match c {
+        SceneCmd::Info { file, cell } => info(&file, cell),
+        SceneCmd::Gen { kind, seed, out } => {
+            let scene = gen::generate(kind, seed);
+            scene.validate(&out)?;
+            scene.save_json(&out)?;
+            println!(
+                "{}: {} patches (seed {seed}) written to {}",
+                kind.name(),
+                scene.patches.len(),
+                out.display()
+            );
+            Ok(())
+        }
+        SceneCmd::Import {
+            file,
+            out,
+            bounds,
+            reflectance,
+        } => {
+            let opts = obj::ImportOptions {
+                bounds,
+                reflectance,
+                ..Default::default()
+            };
+            let (scene, report) = obj::import(&file, &opts)?;
+            for w in &report.warnings {
+                eprintln!("warning: {w}");
+            }
+            scene.save_json(&out)?;
+            println!("{}: {}", file.display(), report.summary());
+            println!("written to {}", out.display());
+            Ok(())
+        }
+    }
+}
+
+/// Parses `lo_x,lo_y,lo_z,hi_x,hi_y,hi_z`.
+fn parse_bounds(s: &str) -> std::result::Result<Aabb, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|x| x.trim().parse::<f64>().map_err(|e| format!("{x:?}: {e}")))
+        .collect::<std::result::Result<_, _>>()?;
+    if v.len() != 6 {
+        return Err(format!("expected 6 numbers, got {}", v.len()));
+    }
+    Ok(Aabb {
+        lo: glam::DVec3::new(v[0], v[1], v[2]),
+        hi: glam::DVec3::new(v[3], v[4], v[5]),
+    })
+}
+
+fn info(file: &Path, cell: f64) -> Result<()> {
+    let scene = Scene::load(file)?;
+    let tracer = Tracer::new(&scene, cell)?;
+    let g = &tracer.grid;
+    let tris = scene
+        .patches
+        .iter()
+        .filter(|p| p.vertices.len() == 3)
+        .count();
+    let emitters = scene
+        .patches
+        .iter()
+        .filter(|p| p.emission.is_nonzero())
+        .count();
+    println!("scene        {}", scene.name);
+    println!(
+        "bounds       {:?} - {:?}",
+        scene.bounds.lo.to_array(),
+        scene.bounds.hi.to_array()
+    );
+    println!(
+        "patches      {} ({} triangles, {} quads, {} emitting)",
+        scene.patches.len(),
+        tris,
+        scene.patches.len() - tris,
+        emitters
+    );
+    println!("total area   {:.6}", scene.total_area());
+    println!(
+        "grid         {}×{}×{} cells of {}, {} nonempty, {} cell entries ({:.2} per patch)",
+        g.dims[0],
+        g.dims[1],
+        g.dims[2],
+        g.cell_size,
+        g.nonempty_cells(),
+        g.entries(),
+        g.entries() as f64 / scene.patches.len() as f64
+    );
+    Ok(())
+}
