@@ -113,14 +113,13 @@ fn bench(c: &mut Criterion) {
 fn cycle_vs_untimed(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
-    let cfg = shellsim::cli::machine_config(None).unwrap();
+    let cfg = shellsim::config::machine(None).unwrap();
     let spec = RunSpec {
         source: 0,
         ratio: 10,
-        cell: 0.05,
         order: TickOrder::Forward,
     };
-    let prep = shellsim::run::prepare(&scene, &path, &cfg, &spec).unwrap();
+    let prep = shellsim::machine::run::prepare(&scene, &path, &cfg, &spec).unwrap();
     let mut m =
         shellsim_hw::machine::Machine::new(cfg, &prep.host.scene, &prep.records, &prep.sectors, 0);
     m.run(TickOrder::Forward, None).unwrap();

@@ -193,7 +193,10 @@ fn scene_model_and_obj_do_not_import_each_other() {
     // obj.rs builds model's types; model.rs never reaches back into the OBJ reader, and the
     // one polygon check depends on neither.
     let read = |f: &str| std::fs::read_to_string(root().join("src/scene").join(f)).unwrap();
-    assert!(!read("model.rs").contains("obj::"), "scene/model.rs imports obj");
+    assert!(
+        !read("model.rs").contains("obj::"),
+        "scene/model.rs imports obj"
+    );
     let polygon = read("polygon.rs");
     assert!(
         !polygon.contains("obj::") && !polygon.contains("model::"),
@@ -204,7 +207,10 @@ fn scene_model_and_obj_do_not_import_each_other() {
 #[test]
 fn hw_never_depends_on_the_host() {
     let manifest = std::fs::read_to_string(root().join("hw/Cargo.toml")).unwrap();
-    assert!(!manifest.contains("shellsim ="), "hw/Cargo.toml depends on shellsim");
+    assert!(
+        !manifest.contains("shellsim ="),
+        "hw/Cargo.toml depends on shellsim"
+    );
     for f in rust_files(&root().join("hw/src")) {
         let text = std::fs::read_to_string(&f).unwrap();
         assert!(
