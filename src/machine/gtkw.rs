@@ -151,6 +151,29 @@ impl Out {
         self.line(&trace_name_in(s, self.format));
     }
 
+    /// A trace under a short label naming its unit (`c0 ctu1 state`): the overview shows
+    /// many signals whose own names (`valid`, `state`) repeat.
+    fn alias(&mut self, s: &Signal) {
+        let (f, shift) = format_in(s, self.format);
+        self.flags(f);
+        if let Some(n) = shift {
+            self.line(&format!("[fpshift_count] {n}"));
+        }
+        let unit = s
+            .scope
+            .strip_prefix("machine.")
+            .unwrap_or(&s.scope)
+            .replace("cluster_", "c")
+            .replace("ray_buffer", "rb")
+            .replace('_', "")
+            .replace('.', " ");
+        self.line(&format!(
+            "+{{{unit} {}}} {}",
+            s.name,
+            trace_name_in(s, self.format)
+        ));
+    }
+
     fn group(&mut self, n: &Node) {
         let (open, close) = if self.closed {
             (TR_CLOSED, TR_CLOSED | TR_COLLAPSED)
@@ -188,9 +211,9 @@ pub fn render(vcd_path: &Path, gtkw_path: &Path, signals: &[Signal], timestart: 
     out.text
 }
 
-/// Cycles the first screen shows (GTKWave's zoom is a power of two: 2^-ZOOM cycles a pixel;
-/// at zoom 1 a window of ~900 pixels shows ~450 cycles).
-pub const FIRST_SCREEN_ZOOM: f64 = 1.0;
+/// The first screen's zoom: GTKWave shows 2^-ZOOM time units (cycles) per pixel, so at −6
+/// the ~1100-pixel wave pane of a 1400-pixel window shows ~500 cycles.
+pub const FIRST_SCREEN_ZOOM: f64 = -6.0;
 
 /// The overview's signals of one cluster, in order: ICU input and output stage valid, ray
 /// buffer occupancy, each CTU's state (`name` within the scope after `machine.cluster_C.`).
@@ -268,7 +291,7 @@ pub fn render_wave(
         out.flags(TR_GRP_BEGIN | TR_BLANK);
         out.line("-overview");
         for s in ov {
-            out.signal(s);
+            out.alias(s);
         }
         out.flags(TR_GRP_END | TR_BLANK);
         out.line("-overview");
@@ -285,7 +308,11 @@ fn preamble(out: &mut Out, wave: &Path, gtkw: &Path, timestart: u64, zoom: Optio
     out.line(&format!("[savefile] \"{}\"", gtkw.display()));
     out.line(&format!("[timestart] {timestart}"));
     if let Some(z) = zoom {
-        // The zoom, then the primary marker (none).
+        // Window and pane sizes, then the zoom and the primary marker (none).
+        out.line("[size] 1400 860");
+        out.line("[sst_width] 160");
+        out.line("[signals_width] 230");
+        out.line("[sst_expanded] 1");
         out.line(&format!("*{z:.6} -1"));
     }
 }

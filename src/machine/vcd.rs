@@ -73,7 +73,7 @@ enum Fst {
 
 /// Flush the FST's value changes into a compressed section past this many buffered bytes,
 /// so memory stays bounded on long runs.
-const FST_FLUSH_BYTES: usize = 64 << 20;
+const FST_FLUSH_BYTES: usize = 8 << 20;
 
 /// A cycle window `[from, to]`, both ends inclusive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -644,7 +644,7 @@ impl VcdWriter {
             for &i in &self.dirty {
                 fst_value(b, &self.slots[i], &mut self.fst_buf)?;
             }
-            if self.timestamps.is_multiple_of(4096) && b.size() > FST_FLUSH_BYTES {
+            if self.timestamps.is_multiple_of(256) && b.size() > FST_FLUSH_BYTES {
                 b.flush().map_err(fst_err)?;
             }
             return Ok(());
