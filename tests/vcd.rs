@@ -771,10 +771,9 @@ fn changes_of(text: &str) -> BTreeMap<String, Vec<(u64, String)>> {
                     && names.contains_key(tok[1]) =>
             {
                 let (n, w) = &names[tok[1]];
-                let v = if x.starts_with('s') {
-                    x[1..].to_string()
-                } else {
-                    norm(&x[1..], *w)
+                let v = match x.strip_prefix('s') {
+                    Some(text) => text.to_string(),
+                    None => norm(&x[1..], *w),
                 };
                 out.entry(n.clone()).or_default().push((t, v));
             }

@@ -150,7 +150,7 @@ impl<T: Clone> Link<T> {
     pub fn pop(&mut self, by: UnitId) -> T {
         one_end(&mut self.consumer, by, "consumer");
         assert!(!self.staged_pop, "two pops in a cycle");
-        assert!(self.len() > 0, "pop without valid");
+        assert!(!self.is_empty(), "pop without valid");
         self.staged_pop = true;
         self.touched = true;
         self.q.front().cloned().expect("pop without valid")
@@ -206,7 +206,7 @@ impl<T: Clone> Link<T> {
     /// Registered valid (an item is at the front).
     #[inline]
     pub fn valid(&self) -> bool {
-        self.len() > 0
+        !self.is_empty()
     }
 
     /// Registered ready (room for one more).
