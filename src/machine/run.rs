@@ -315,7 +315,7 @@ pub fn execute(
             return Err(Error::param(
                 "vcd",
                 format!(
-                    "{}: the GTKWave save file would overwrite it; name it *.vcd",
+                    "{}: the GTKWave save file would overwrite it; name it *.vcd or *.fst",
                     p.display()
                 ),
             ));
@@ -325,6 +325,7 @@ pub fn execute(
         Some((p, opts)) => Some(VcdWriter::create(&p, opts)?),
         None => None,
     };
+    let started = std::time::Instant::now();
     let probe = writer.as_mut().map(|w| w as &mut dyn Probe);
     let out = run(scene, file, cfg, spec, probe)?;
     let waveform = match writer {
@@ -346,12 +347,16 @@ pub fn execute(
         struct Out<'a> {
             config: MachineConfig,
             stats: &'a RunStats,
+            /// Host figures: not simulated statistics (see [`Host`]).
+            host: Host,
         }
+        let host = Host::measure(started.elapsed().as_secs_f64(), &out.stats);
         write_json(
             out_path,
             &Out {
                 config: config::resolve(cfg, scene.bounds.scale())?,
                 stats: &out.stats,
+                host,
             },
         )?;
     }
@@ -359,4 +364,48 @@ pub fn execute(
         stats: out.stats,
         waveform,
     })
+}
+
+/// How the host ran the simulation, kept apart from the simulated statistics (as gem5 keeps
+/// `hostSeconds` apart): it differs from run to run, so goldens and determinism checks leave
+/// it out ([`strip_host`]).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Host {
+    /// Wall-clock seconds of the whole run: partition, records, machine, check.
+    pub wall_seconds: f64,
+    /// Wall-clock seconds of the machine's simulation alone.
+    pub simulation_seconds: f64,
+    /// Simulated cycles per wall-clock second of the simulation.
+    pub simulated_cycles_per_second: f64,
+    /// Peak resident set size of the process in KiB (`VmHWM` of /proc/self/status; `null`
+    /// where there is none).
+    pub peak_rss_kib: Option<u64>,
+}
+
+impl Host {
+    /// The figures of a run that took `wall_seconds` and produced `stats`.
+    pub fn measure(wall_seconds: f64, stats: &RunStats) -> Self {
+        Host {
+            wall_seconds,
+            simulation_seconds: stats.sim_wall_s,
+            simulated_cycles_per_second: stats.sim_rate_hz,
+            peak_rss_kib: peak_rss_kib(),
+        }
+    }
+}
+
+/// `VmHWM` (peak resident set) of this process in KiB, from /proc/self/status.
+pub fn peak_rss_kib() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// A run JSON without its `host` section: what goldens and determinism checks compare.
+pub fn strip_host(json: &str) -> String {
+    let mut v: serde_json::Value = serde_json::from_str(json).expect("a run JSON");
+    if let Some(o) = v.as_object_mut() {
+        o.remove("host");
+    }
+    serde_json::to_string_pretty(&v).expect("serializable")
 }
