@@ -6,8 +6,10 @@ pub mod args;
 pub mod check;
 pub mod default;
 pub mod experiment;
+pub mod matrix;
 pub mod paper;
 pub mod partition;
+pub mod radiosity;
 pub mod reference;
 pub mod run;
 pub mod scene;
@@ -49,6 +51,12 @@ pub enum Command {
     Experiment(experiment::ExperimentArgs),
     /// Regenerate every figure of the paper and a report (report.md) in one command.
     Paper(paper::PaperArgs),
+    /// The whole form-factor matrix on one model (float, fixed or machine): Matrix Market
+    /// plus a JSON summary (per row the escaped weight and row sum; the machine's cycles).
+    Matrix(matrix::MatrixArgs),
+    /// Solve B = E + ρ F B (Gauss-Seidel or shooting), write per-patch radiosity and a
+    /// picture; compare two models' pictures and solutions.
+    Radiosity(radiosity::RadiosityArgs),
 }
 
 /// Runs the job the command line asks for; errors name the flags the user typed.
@@ -66,6 +74,8 @@ fn dispatch(cli: Cli) -> Result<()> {
         Some(Command::Experiment(a)) => experiment::run(&a),
         Some(Command::Paper(a)) => paper::run(&a),
         Some(Command::Run(a)) => run::run(&a),
+        Some(Command::Matrix(a)) => matrix::run(&a),
+        Some(Command::Radiosity(a)) => radiosity::run(&a),
         None => default::run(),
     }
 }
