@@ -66,18 +66,21 @@ pub struct MatrixSpec {
     pub sources: Range<u32>,
 }
 
-/// One row: F(source → j) for the patches hit, by id, and the weight that escaped.
+/// One row: F(source → j) for the patches whose front side is hit, by id; the weight that
+/// escaped; the weight that hit some patch's back side (blocked: a back side neither emits
+/// nor reflects, e.g. the ceiling's rays on the back of the Cornell box's light).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Row {
     pub source: u32,
     pub entries: Vec<(u32, f64)>,
     pub escaped: f64,
+    pub back: f64,
 }
 
 impl Row {
-    /// Σ_j F_ij + escaped weight, summed in id order (1 up to rounding).
+    /// Σ_j F_ij + escaped + back weight, summed in id order (1 up to rounding).
     pub fn sum(&self) -> f64 {
-        self.entries.iter().map(|e| e.1).sum::<f64>() + self.escaped
+        self.entries.iter().map(|e| e.1).sum::<f64>() + self.escaped + self.back
     }
 }
 
@@ -228,12 +231,20 @@ pub fn rays_of(scene: &Scene, spec: &MatrixSpec, i: u32) -> RaySet {
 }
 
 /// Sums per-ray hits into a row (weights in ray order, entries by id).
-fn row_of(source: u32, n: usize, hits: impl Iterator<Item = Option<u32>>, weights: &[f64]) -> Row {
+fn row_of(
+    source: u32,
+    scene: &Scene,
+    set: &RaySet,
+    hits: impl Iterator<Item = Option<u32>>,
+) -> Row {
+    let n = scene.patches.len();
     let mut f = vec![0.0f64; n];
     let mut hit = vec![false; n];
     let mut escaped = 0.0;
-    for (h, w) in hits.zip(weights) {
+    let mut back = 0.0;
+    for ((h, w), ray) in hits.zip(&set.weights).zip(&set.rays) {
         match h {
+            Some(p) if scene.patches[p as usize].area_vector().dot(ray.d) > 0.0 => back += w,
             Some(p) => {
                 f[p as usize] += w;
                 hit[p as usize] = true;
@@ -251,6 +262,7 @@ fn row_of(source: u32, n: usize, hits: impl Iterator<Item = Option<u32>>, weight
         source,
         entries,
         escaped,
+        back,
     }
 }
 
@@ -273,7 +285,6 @@ fn records(sh: &Shared, host: &HostFixed, set: &RaySet, source: u32) -> Result<V
 
 /// One source's row on `spec.model` (the machine's figures too, for the machine).
 pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Option<MachineRow>)> {
-    let n = sh.scene.patches.len();
     let set = rays_of(sh.scene, spec, i);
     match spec.model {
         Model::Float => {
@@ -281,7 +292,7 @@ pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Optio
                 .rays
                 .iter()
                 .map(|r| sh.tracer.trace(r, Some(i)).map(|h| h.patch));
-            Ok((row_of(i, n, hits, &set.weights), None))
+            Ok((row_of(i, sh.scene, &set, hits), None))
         }
         Model::Fixed => {
             let host = sh.host.as_ref().expect("built for the fixed model");
@@ -293,7 +304,7 @@ pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Optio
                     .0
                     .map(|h| h.patch)
             });
-            Ok((row_of(i, n, hits, &set.weights), None))
+            Ok((row_of(i, sh.scene, &set, hits), None))
         }
         Model::Machine => {
             let host = sh.host.as_ref().expect("built for the machine model");
@@ -328,9 +339,9 @@ pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Optio
             };
             let row = row_of(
                 i,
-                n,
+                sh.scene,
+                &set,
                 out.hits.iter().map(|h| h.map(|h| h.patch)),
-                &set.weights,
             );
             Ok((row, Some(mr)))
         }
@@ -386,6 +397,8 @@ pub struct RowSummary {
     pub source: u32,
     pub nonzeros: usize,
     pub escaped_weight: f64,
+    /// Weight on patches' back sides.
+    pub back_weight: f64,
     pub row_sum: f64,
     #[serde(flatten, skip_serializing_if = "Option::is_none")]
     pub machine: Option<MachineRow>,
@@ -436,6 +449,7 @@ impl Summary {
                 source: r.source,
                 nonzeros: r.entries.len(),
                 escaped_weight: r.escaped,
+                back_weight: r.back,
                 row_sum: r.sum(),
                 machine: m.machine.get(k).copied(),
             })
@@ -522,7 +536,7 @@ pub fn write(path: &Path, m: &FormMatrix, summary: &Summary) -> Result<()> {
 /// Reads a full matrix of `scene` from a Matrix Market file: it must be n × n for the
 /// scene's n patches, every entry finite and in [0, 1], every row sum at most 1 (+1e-9);
 /// when its summary lies beside it, it must name the same scene. The escaped weight of a
-/// row is 1 − its sum. Bad files are `Error::Input` naming the file and what is wrong.
+/// row is 1 − its sum (the file does not tell escaped from back-side weight). Bad files are `Error::Input` naming the file and what is wrong.
 pub fn read(path: &Path, scene: &Scene) -> Result<FormMatrix> {
     let text = std::fs::read(path).map_err(|e| Error::unreadable(path, e))?;
     let tri: sprs::TriMat<f64> = sprs::io::read_matrix_market_from_bufread(&mut text.as_slice())
@@ -594,6 +608,7 @@ pub fn read(path: &Path, scene: &Scene) -> Result<FormMatrix> {
             source: i as u32,
             entries: e,
             escaped: (1.0 - s).max(0.0),
+            back: 0.0,
         });
     }
     Ok(FormMatrix {

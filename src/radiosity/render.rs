@@ -24,18 +24,19 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// From the scene's bounds: inside the room, 2 % of the depth in front of the wall at
-    /// y = hi (the committed scenes are z-up with that wall closing the front), at half
-    /// height, looking at the centre of the wall at y = lo, 60° field of view.
+    /// From the scene's bounds: inside the room, 1 % of the depth in front of the wall at
+    /// y = hi (the committed scenes are z-up with that wall closing the front), at 40 % of
+    /// the height, looking slightly up at the wall at y = lo (60 % of the height) so the
+    /// ceiling's light is in view, 80° field of view.
     pub fn default_for(scene: &Scene) -> Camera {
         let (lo, hi) = (scene.bounds.lo, scene.bounds.hi);
         let c = (lo + hi) * 0.5;
         let ext = hi - lo;
         Camera {
-            eye: [c.x, hi.y - 0.02 * ext.y, c.z],
-            look: [c.x, lo.y, c.z],
+            eye: [c.x, hi.y - 0.01 * ext.y, lo.z + 0.4 * ext.z],
+            look: [c.x, lo.y, lo.z + 0.6 * ext.z],
             up: [0.0, 0.0, 1.0],
-            fov: 60.0,
+            fov: 80.0,
         }
     }
 
@@ -160,11 +161,11 @@ pub fn exposure(scene: &Scene) -> f64 {
     }
 }
 
-/// The tone map: 1 − exp(−B / (0.8 × exposure)) per channel, then the sRGB curve, 8 bits.
+/// The tone map: 1 − exp(−B / (1.5 × exposure)) per channel, then the sRGB curve, 8 bits.
 pub fn tone(b: [f64; 3], exposure: f64) -> [u8; 3] {
     let mut out = [0u8; 3];
     for c in 0..3 {
-        let x = 1.0 - (-b[c].max(0.0) / (0.8 * exposure)).exp();
+        let x = 1.0 - (-b[c].max(0.0) / (1.5 * exposure)).exp();
         let s = if x <= 0.003_130_8 {
             12.92 * x
         } else {

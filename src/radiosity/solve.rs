@@ -54,7 +54,9 @@ pub struct Energy {
     pub absorbed: f64,
     /// Σ A_i B_i × (escaped weight of row i): the power leaving into no patch.
     pub escaped: f64,
-    /// (emitted − absorbed − escaped) / emitted.
+    /// Σ A_i B_i × (back-side weight of row i): the power absorbed by back sides.
+    pub back: f64,
+    /// (emitted − absorbed − escaped − back) / emitted.
     pub imbalance: f64,
 }
 
@@ -111,7 +113,7 @@ pub fn residual(m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> f64 {
 
 /// The energy balance of `b`.
 pub fn energy(m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> Energy {
-    let (mut emitted, mut leaving, mut absorbed, mut escaped) = (0.0, 0.0, 0.0, 0.0);
+    let (mut emitted, mut leaving, mut absorbed, mut escaped, mut back) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for (i, p) in scene.patches.iter().enumerate() {
         let a = p.area();
         let e = p.emission.rgb();
@@ -122,6 +124,7 @@ pub fn energy(m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> Energy {
             leaving += a * b[i][c] / 3.0;
             absorbed += a * (1.0 - rho[c]) * h[c] / 3.0;
             escaped += a * b[i][c] * m.rows[i].escaped / 3.0;
+            back += a * b[i][c] * m.rows[i].back / 3.0;
         }
     }
     Energy {
@@ -129,8 +132,9 @@ pub fn energy(m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> Energy {
         leaving,
         absorbed,
         escaped,
+        back,
         imbalance: if emitted > 0.0 {
-            (emitted - absorbed - escaped) / emitted
+            (emitted - absorbed - escaped - back) / emitted
         } else {
             0.0
         },
