@@ -68,12 +68,18 @@ pub struct JobReport {
     pub comparison: Option<Comparison>,
 }
 
+/// The scene, the file it was read from, the machine configuration.
+#[derive(Clone, Copy)]
+pub struct Inputs<'a> {
+    pub scene: &'a Scene,
+    pub file: &'a Path,
+    pub cfg: &'a MachineConfig,
+}
+
 /// The matrix of `model` (computed for `spec` with `model`, or read from `file`) and its
 /// solution.
 pub fn solve_model(
-    scene: &Scene,
-    file: &Path,
-    cfg: &MachineConfig,
+    inputs: Inputs,
     spec: &MatrixSpec,
     model: Model,
     matrix_file: Option<&Path>,
@@ -81,6 +87,7 @@ pub fn solve_model(
     clock_mhz: f64,
     progress: bool,
 ) -> Result<Solved> {
+    let Inputs { scene, file, cfg } = inputs;
     let (m, totals) = match matrix_file {
         Some(f) => (matrix::read(f, scene)?, None),
         None => {
@@ -144,9 +151,7 @@ pub fn run(
     let mf = job.matrix_file.as_deref();
     let solve = |model: Model, mf: Option<&Path>, spec: &MatrixSpec| {
         solve_model(
-            scene,
-            file,
-            cfg,
+            Inputs { scene, file, cfg },
             spec,
             model,
             mf,
