@@ -296,7 +296,8 @@ pub fn nice_scale(x: f64) -> f64 {
 }
 
 /// The false-colour picture of the signed relative difference (Y_b − Y_a) / Y_a of each
-/// patch's luminance, on ±`scale`, with a scale bar and its labels (in %) below. Pixels
+/// patch's luminance, on ±`scale`, with a scale bar and its labels (as fractions: 0.01 is
+/// 1 %) below. Pixels
 /// that see no patch are grey.
 pub fn difference_picture(hits: &HitBuffer, rel: &[f64], scale: f64) -> Picture {
     let bar_h = 40;
@@ -317,10 +318,8 @@ pub fn difference_picture(hits: &HitBuffer, rel: &[f64], scale: f64) -> Picture 
             img.put_pixel(x, y, image::Rgb(diverging(t)));
         }
     }
-    let label = |v: f64| {
-        let s = format!("{}", (v * 100.0 * 1e6).round() / 1e6);
-        format!("{s}%")
-    };
+    // Labels as fractions (0.01 = 1 %): the glyphs are digits and signs only.
+    let label = |v: f64| format!("{}", (v * 1e9).round() / 1e9);
     let glyph_w = |s: &str| s.len() as u32 * 4 * 2;
     let lo = format!("-{}", label(scale));
     let hi = format!("+{}", label(scale));
@@ -346,8 +345,6 @@ fn glyph(c: char) -> [u8; 5] {
         '.' => [0, 0, 0, 0, 2],
         '-' => [0, 0, 7, 0, 0],
         '+' => [0, 2, 7, 2, 0],
-        '%' => [5, 1, 2, 4, 5],
-        'e' => [0, 7, 7, 4, 7],
         _ => [0; 5],
     }
 }
