@@ -4,7 +4,7 @@
 //!
 //! Dependencies point one way (see ARCHITECTURE.md): `cli` → everything, nothing imports
 //! `cli`; `experiment` → `machine`, `partition`, `chart`; `machine` → `fixed`, `partition`,
-//! `reference`; `fixed`, `partition` → `reference` → `scene`. `error`, `output`, `config`,
+//! `reference`; `radiosity` → `machine`, `fixed`, `partition`, `reference`; `fixed`, `partition` → `reference` → `scene`. `error`, `output`, `config`,
 //! `paper`, `progress` and `chart` are leaves anyone may use.
 
 pub mod chart;
@@ -18,6 +18,7 @@ pub mod output;
 pub mod paper;
 pub mod partition;
 pub mod progress;
+pub mod radiosity;
 pub mod reference;
 pub mod scene;
 pub mod size;

@@ -16,6 +16,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("machine", 4),
     ("experiment", 5),
     ("size", 5),
+    ("radiosity", 5),
     ("cli", 6),
 ];
 

@@ -113,3 +113,82 @@ pub fn name_flags(e: Error) -> Error {
         e => e,
     }
 }
+
+/// Which rays a form-factor matrix job casts and on which configuration (`matrix`,
+/// `radiosity`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct MatrixRaysArgs {
+    /// Rays per source patch.
+    #[arg(long, conflicts_with = "ratio")]
+    pub rays: Option<usize>,
+    /// Rays per source as the paper's Hi_Low_Ratio: ratio × 969 (default 1: 969 rays).
+    #[arg(long)]
+    pub ratio: Option<usize>,
+    /// Ray directions over each source's hemisphere.
+    #[arg(long, value_enum, default_value_t = crate::reference::rays::Directions::Rings)]
+    pub directions: crate::reference::rays::Directions,
+    /// Seed of the ray origins (and of random directions).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Only these sources, FROM..TO (TO excluded); default all.
+    #[arg(long, value_name = "FROM..TO", value_parser = parse_range)]
+    pub sources: Option<(u32, u32)>,
+    #[command(flatten)]
+    pub machine: MachineArgs,
+    /// The machine's clock for its time in the summary, MHz.
+    #[arg(long, default_value_t = 50.0)]
+    pub clock_mhz: f64,
+}
+
+impl MatrixRaysArgs {
+    /// The rays per source: `--rays`, else `--ratio` × 969.
+    pub fn rays_per_source(&self) -> Result<usize> {
+        match (self.rays, self.ratio) {
+            (Some(n), _) => Ok(n),
+            (None, r) => {
+                let r = r.unwrap_or(1);
+                if r == 0 {
+                    return Err(Error::Usage("--ratio 0 must be at least 1".into()));
+                }
+                Ok(r.saturating_mul(crate::paper::PAPER_RAYS))
+            }
+        }
+    }
+
+    /// The matrix specification for `model` over a scene of `n` patches.
+    pub fn spec(
+        &self,
+        model: crate::radiosity::matrix::Model,
+        n: usize,
+    ) -> Result<crate::radiosity::matrix::MatrixSpec> {
+        let (a, b) = self.sources.unwrap_or((0, n as u32));
+        Ok(crate::radiosity::matrix::MatrixSpec {
+            model,
+            rays: self.rays_per_source()?,
+            directions: self.directions,
+            seed: self.seed,
+            sources: a..b,
+        })
+    }
+}
+
+/// Parses `FROM..TO`.
+fn parse_range(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (a, b) = s
+        .split_once("..")
+        .ok_or_else(|| format!("{s:?} is not FROM..TO"))?;
+    let p = |x: &str| {
+        x.trim()
+            .parse::<u32>()
+            .map_err(|_| format!("{x:?} in {s:?} is not a patch id"))
+    };
+    Ok((p(a)?, p(b)?))
+}
+
+/// The input scene alone.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SceneFileArg {
+    /// The scene file (.json or .obj).
+    #[arg(long)]
+    pub scene: PathBuf,
+}

@@ -6,8 +6,10 @@ pub mod args;
 pub mod check;
 pub mod default;
 pub mod experiment;
+pub mod matrix;
 pub mod paper;
 pub mod partition;
+pub mod radiosity;
 pub mod reference;
 pub mod run;
 pub mod scene;
@@ -53,6 +55,12 @@ pub enum Command {
     /// The smallest machine that meets a form-factor accuracy target on a scene (bits,
     /// buffers, clusters), written as a configuration and a report.
     Size(size::SizeArgs),
+    /// The whole form-factor matrix on one model (float, fixed or machine): Matrix Market
+    /// plus a JSON summary (per row the escaped weight and row sum; the machine's cycles).
+    Matrix(matrix::MatrixArgs),
+    /// Solve B = E + ρ F B (Gauss-Seidel or shooting), write per-patch radiosity and a
+    /// picture; compare two models' pictures and solutions.
+    Radiosity(radiosity::RadiosityArgs),
 }
 
 /// Runs the job the command line asks for; errors name the flags the user typed.
@@ -71,6 +79,8 @@ fn dispatch(cli: Cli) -> Result<()> {
         Some(Command::Paper(a)) => paper::run(&a),
         Some(Command::Run(a)) => run::run(&a),
         Some(Command::Size(a)) => size::run(&a),
+        Some(Command::Matrix(a)) => matrix::run(&a),
+        Some(Command::Radiosity(a)) => radiosity::run(&a),
         None => default::run(),
     }
 }

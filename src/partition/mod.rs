@@ -424,6 +424,57 @@ pub fn imbalance(v: impl Iterator<Item = u64>) -> f64 {
     *v.iter().max().unwrap() as f64 / (total as f64 / v.len() as f64)
 }
 
+/// The low-resolution pass and the static partition made from it.
+fn low_res_plan(scene: &Scene, tracer: &Tracer, cfg: &Config) -> (LowRes, Plan) {
+    let src = &scene.patches[cfg.source as usize];
+    let frame = Frame::of_patch(src);
+    let low_set = hemisphere_rays(
+        src,
+        cfg.rays_low,
+        Directions::Rings,
+        Origins::Patch,
+        cfg.seed,
+    );
+    let low_caster = Caster::new(
+        tracer,
+        &low_set.rays,
+        cfg.source,
+        src.centroid(),
+        cfg.shell_params(),
+    );
+    let grid = SubregionGrid::new(cfg.subregions.0, cfg.subregions.1);
+    let low = lowres::low_res(&low_caster, &frame, grid);
+    drop(low_caster);
+    let plan = plan(&low, cfg.granularity, cfg.sections, cfg.ctus);
+    (low, plan)
+}
+
+/// The machine's hand-off without the high-resolution pass: the low-resolution pass and
+/// the static partition of [`partition`], then every ray of `rays` (any set over the
+/// source's hemisphere) put into its sector. Returns `sectors[section][sector]`, each
+/// sector's ray ids ascending. This is all the machine needs; it skips the float
+/// shelling walk, the baseline and the self-check that [`partition`] adds for its report.
+/// `cfg` must have passed [`Config::validate`].
+pub fn sectors_for(
+    scene: &Scene,
+    tracer: &Tracer,
+    cfg: &Config,
+    rays: &RaySet,
+) -> Vec<Vec<Vec<u32>>> {
+    let frame = Frame::of_patch(&scene.patches[cfg.source as usize]);
+    let (_, plan) = low_res_plan(scene, tracer, cfg);
+    let mut out: Vec<Vec<Vec<u32>>> = plan
+        .sections
+        .iter()
+        .map(|s| vec![Vec::new(); s.sectors.len()])
+        .collect();
+    for (r, ray) in rays.rays.iter().enumerate() {
+        let (i, j) = plan.locate(Angles::of(&frame, ray.d));
+        out[i][j].push(r as u32);
+    }
+    out
+}
+
 /// Runs the low-resolution pass, the static partition and the high-resolution pass.
 /// `cfg` must have passed [`Config::validate`]; `tracer` must be built on `scene` with
 /// `cfg.cell_size`.
@@ -432,20 +483,7 @@ pub fn partition(scene: &Scene, tracer: &Tracer, cfg: &Config) -> Partition {
     let frame = Frame::of_patch(src);
     let centre = src.centroid();
     let params = cfg.shell_params();
-    // Low resolution.
-    let low_set = hemisphere_rays(
-        src,
-        cfg.rays_low,
-        Directions::Rings,
-        Origins::Patch,
-        cfg.seed,
-    );
-    let low_caster = Caster::new(tracer, &low_set.rays, cfg.source, centre, params);
-    let grid = SubregionGrid::new(cfg.subregions.0, cfg.subregions.1);
-    let low = lowres::low_res(&low_caster, &frame, grid);
-    drop(low_caster);
-    // Static partition.
-    let plan = plan(&low, cfg.granularity, cfg.sections, cfg.ctus);
+    let (low, plan) = low_res_plan(scene, tracer, cfg);
     let ratio = cfg.ratio as u64;
     let predicted_sections = plan
         .sections

@@ -1,0 +1,627 @@
+//! The whole form-factor matrix (`shellsim matrix`): every source patch's row on one of the
+//! three models — the float tracer, the untimed fixed-point model, or the cycle-level
+//! machine (checked ray for ray against the untimed model) — in parallel over sources with
+//! the result independent of the thread count; written as Matrix Market (sprs) plus a JSON
+//! summary, and read back with its checks.
+
+use crate::error::{Error, Result};
+use crate::fixed::records::HostFixed;
+use crate::machine::run::{simulate, MachineInput, RunSpec};
+use crate::output::{json_string, write_atomic};
+use crate::partition::{self, Config as PartitionConfig};
+use crate::progress::Progress;
+use crate::reference::rays::{check_source_and_rays, hemisphere_rays, Directions, Origins, RaySet};
+use crate::reference::tracer::Tracer;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use shellsim_hw::config::MachineConfig;
+use shellsim_hw::machine::TickOrder;
+use shellsim_hw::{Exceptions, RayRecord};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+/// Which model computes the rows.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Model {
+    /// The float reference tracer (f64, 3D-DDA).
+    Float,
+    /// The untimed fixed-point model (`FixedScene::nearest_grid`).
+    Fixed,
+    /// The cycle-level machine, every ray checked against the untimed model.
+    Machine,
+}
+
+impl Model {
+    /// Its name on the command line and in file names.
+    pub fn name(self) -> &'static str {
+        match self {
+            Model::Float => "float",
+            Model::Fixed => "fixed",
+            Model::Machine => "machine",
+        }
+    }
+
+    /// Parses `float`, `fixed` or `machine`.
+    pub fn parse(s: &str) -> Option<Model> {
+        match s {
+            "float" => Some(Model::Float),
+            "fixed" => Some(Model::Fixed),
+            "machine" => Some(Model::Machine),
+            _ => None,
+        }
+    }
+}
+
+/// What a matrix job casts: `rays` rays of `directions` from every source in `sources`,
+/// origins stratified over the patch, seeded by `seed` (the same set for every model, so
+/// the models differ only in how they find the nearest hit).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MatrixSpec {
+    pub model: Model,
+    pub rays: usize,
+    pub directions: Directions,
+    pub seed: u64,
+    pub sources: Range<u32>,
+}
+
+/// One row: F(source → j) for the patches whose front side is hit, by id; the weight that
+/// escaped; the weight that hit some patch's back side (blocked: a back side neither emits
+/// nor reflects, e.g. the ceiling's rays on the back of the Cornell box's light).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub source: u32,
+    pub entries: Vec<(u32, f64)>,
+    pub escaped: f64,
+    pub back: f64,
+}
+
+impl Row {
+    /// Σ_j F_ij + escaped + back weight, summed in id order (1 up to rounding).
+    pub fn sum(&self) -> f64 {
+        self.entries.iter().map(|e| e.1).sum::<f64>() + self.escaped + self.back
+    }
+}
+
+/// The machine's figures for one source.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct MachineRow {
+    pub cycles: u64,
+    pub pipeline_efficiency: f64,
+    pub patch_loads: u64,
+    pub jobs: u64,
+    /// Rays whose hit differs from the untimed model's (must be 0).
+    pub mismatches_vs_fixed: u64,
+}
+
+/// The rows of a matrix over `n` patches (rows for `spec.sources`, in source order).
+#[derive(Clone, Debug)]
+pub struct FormMatrix {
+    pub scene: String,
+    pub n: usize,
+    pub rows: Vec<Row>,
+    /// Per row, for the machine model.
+    pub machine: Vec<MachineRow>,
+}
+
+impl FormMatrix {
+    /// True when it holds every row of the scene, in order.
+    pub fn is_full(&self) -> bool {
+        self.rows.len() == self.n
+            && self
+                .rows
+                .iter()
+                .enumerate()
+                .all(|(i, r)| r.source as usize == i)
+    }
+
+    /// Every row as a dense vector (for small scenes and tests).
+    pub fn dense(&self) -> Vec<Vec<f64>> {
+        self.rows
+            .iter()
+            .map(|r| {
+                let mut v = vec![0.0; self.n];
+                for &(j, f) in &r.entries {
+                    v[j as usize] = f;
+                }
+                v
+            })
+            .collect()
+    }
+
+    /// Entries in row-major order (row, column, value), 0-based.
+    pub fn triplets(&self) -> impl Iterator<Item = (usize, usize, f64)> + '_ {
+        self.rows.iter().flat_map(|r| {
+            r.entries
+                .iter()
+                .map(move |&(j, f)| (r.source as usize, j as usize, f))
+        })
+    }
+
+    /// Nonzero entries.
+    pub fn nnz(&self) -> usize {
+        self.rows.iter().map(|r| r.entries.len()).sum()
+    }
+
+    /// The Matrix Market text (coordinate, real, general; 1-based), written by sprs.
+    pub fn matrix_market(&self) -> Vec<u8> {
+        let mut tri = sprs::TriMat::new((self.n, self.n));
+        for (i, j, f) in self.triplets() {
+            tri.add_triplet(i, j, f);
+        }
+        let mut out = Vec::new();
+        sprs::io::write_matrix_market_to_bufwrite(&mut out, &tri)
+            .expect("writing to memory does not fail");
+        out
+    }
+}
+
+/// Everything a matrix job is built on, made once for all sources: the float tracer, the
+/// fixed-point scene (one cell table for every source) and the machine configuration.
+pub struct Shared<'a> {
+    pub scene: &'a Scene,
+    pub file: &'a Path,
+    pub cfg: &'a MachineConfig,
+    pub tracer: Tracer,
+    pub host: Option<HostFixed>,
+    /// The resolved cell size and shell radius (scene units; `config::resolve`).
+    pub cell: f64,
+    pub shell_radius: f64,
+}
+
+impl<'a> Shared<'a> {
+    /// Builds the tracer (and, for the fixed and machine models, the fixed-point scene) on
+    /// the configuration's cell size.
+    pub fn new(
+        scene: &'a Scene,
+        file: &'a Path,
+        cfg: &'a MachineConfig,
+        model: Model,
+    ) -> Result<Self> {
+        let resolved = crate::config::resolve(cfg, scene.bounds.scale())?;
+        let cell = resolved.machine.cell_size.value();
+        let shell_radius = resolved.machine.shell_radius.value();
+        let tracer = Tracer::new(scene, cell)?;
+        let host = match model {
+            Model::Float => None,
+            _ => Some(HostFixed::new(scene, file, cfg.datapath, cell)?),
+        };
+        Ok(Shared {
+            scene,
+            file,
+            cfg,
+            tracer,
+            host,
+            cell,
+            shell_radius,
+        })
+    }
+}
+
+/// Checks `spec` against `scene` (read from `file`): the sources exist and are not empty,
+/// the ray count is in range.
+pub fn validate(spec: &MatrixSpec, scene: &Scene, file: &Path) -> Result<()> {
+    let n = scene.patches.len() as u32;
+    if spec.sources.start >= spec.sources.end || spec.sources.end > n {
+        return Err(Error::param(
+            "sources",
+            format!(
+                "{}..{} is not a nonempty range within the scene's patches 0..{n}",
+                spec.sources.start, spec.sources.end
+            ),
+        ));
+    }
+    check_source_and_rays(scene, file, spec.sources.start, spec.rays)?;
+    if spec.model == Model::Machine && spec.rays > partition::MAX_PASS_RAYS {
+        return Err(Error::param(
+            "rays",
+            format!(
+                "{} is out of range for the machine (1..={})",
+                spec.rays,
+                partition::MAX_PASS_RAYS
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The ray set of source `i`.
+pub fn rays_of(scene: &Scene, spec: &MatrixSpec, i: u32) -> RaySet {
+    hemisphere_rays(
+        &scene.patches[i as usize],
+        spec.rays,
+        spec.directions,
+        Origins::Patch,
+        spec.seed,
+    )
+}
+
+/// Sums per-ray hits into a row (weights in ray order, entries by id).
+fn row_of(
+    source: u32,
+    scene: &Scene,
+    set: &RaySet,
+    hits: impl Iterator<Item = Option<u32>>,
+) -> Row {
+    let n = scene.patches.len();
+    let mut f = vec![0.0f64; n];
+    let mut hit = vec![false; n];
+    let mut escaped = 0.0;
+    let mut back = 0.0;
+    for ((h, w), ray) in hits.zip(&set.weights).zip(&set.rays) {
+        match h {
+            Some(p) if scene.patches[p as usize].area_vector().dot(ray.d) > 0.0 => back += w,
+            Some(p) => {
+                f[p as usize] += w;
+                hit[p as usize] = true;
+            }
+            None => escaped += w,
+        }
+    }
+    let entries = f
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| hit[*i])
+        .map(|(i, v)| (i as u32, v))
+        .collect();
+    Row {
+        source,
+        entries,
+        escaped,
+        back,
+    }
+}
+
+/// The fixed-point ray records of `set` (a ray that does not fit the formats is bad input).
+fn records(sh: &Shared, host: &HostFixed, set: &RaySet, source: u32) -> Result<Vec<RayRecord>> {
+    set.rays
+        .iter()
+        .enumerate()
+        .map(|(k, r)| {
+            host.ray(k as u32, r).ok_or_else(|| {
+                Error::input(
+                    sh.file,
+                    format!("source {source}, ray {k}"),
+                    "does not fit the datapath's formats",
+                )
+            })
+        })
+        .collect()
+}
+
+/// One source's row on `spec.model` (the machine's figures too, for the machine).
+pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Option<MachineRow>)> {
+    let set = rays_of(sh.scene, spec, i);
+    match spec.model {
+        Model::Float => {
+            let hits = set
+                .rays
+                .iter()
+                .map(|r| sh.tracer.trace(r, Some(i)).map(|h| h.patch));
+            Ok((row_of(i, sh.scene, &set, hits), None))
+        }
+        Model::Fixed => {
+            let host = sh.host.as_ref().expect("built for the fixed model");
+            let recs = records(sh, host, &set, i)?;
+            let hits = recs.iter().map(|r| {
+                let mut e = Exceptions::default();
+                host.scene
+                    .nearest_grid(r, Some(i), &mut e)
+                    .0
+                    .map(|h| h.patch)
+            });
+            Ok((row_of(i, sh.scene, &set, hits), None))
+        }
+        Model::Machine => {
+            let host = sh.host.as_ref().expect("built for the machine model");
+            let recs = records(sh, host, &set, i)?;
+            let m = &sh.cfg.machine;
+            let mut pcfg =
+                PartitionConfig::paper(i, m.clusters as usize, m.ctus_per_cluster as usize, 1);
+            pcfg.shell_radius = sh.shell_radius;
+            pcfg.subshell_max = m.subshell_max_patches as usize;
+            pcfg.cell_size = sh.cell;
+            pcfg.seed = spec.seed;
+            pcfg.validate(sh.scene, sh.file)?;
+            let sectors = partition::sectors_for(sh.scene, &sh.tracer, &pcfg, &set);
+            let input = MachineInput {
+                host,
+                records: &recs,
+                sectors: &sectors,
+            };
+            let run = RunSpec {
+                source: i,
+                ratio: 1,
+                order: TickOrder::Forward,
+            };
+            let out = simulate(&input, &sh.scene.name, sh.cfg, &run, None)?;
+            let s = &out.stats;
+            let mr = MachineRow {
+                cycles: s.cycles,
+                pipeline_efficiency: s.pipeline_efficiency,
+                patch_loads: s.patch_loads,
+                jobs: s.jobs,
+                mismatches_vs_fixed: s.mismatches_vs_fixed,
+            };
+            let row = row_of(
+                i,
+                sh.scene,
+                &set,
+                out.hits.iter().map(|h| h.map(|h| h.patch)),
+            );
+            Ok((row, Some(mr)))
+        }
+    }
+}
+
+/// Every row of `spec.sources`, in parallel over sources (rayon), collected in source
+/// order: the result does not depend on the thread count. A progress bar with ETA on a
+/// terminal.
+pub fn compute(
+    scene: &Scene,
+    file: &Path,
+    cfg: &MachineConfig,
+    spec: &MatrixSpec,
+    show_progress: bool,
+) -> Result<FormMatrix> {
+    validate(spec, scene, file)?;
+    let sh = Shared::new(scene, file, cfg, spec.model)?;
+    let ids: Vec<u32> = spec.sources.clone().collect();
+    let mut progress = show_progress.then(|| Progress::new(ids.len() as u64, "sources"));
+    let mut rows = Vec::with_capacity(ids.len());
+    let mut machine = Vec::new();
+    // Blocks of sources in parallel, so the bar moves; order kept within and across blocks.
+    let block = (4 * rayon::current_num_threads()).max(8);
+    for chunk in ids.chunks(block) {
+        let part: Vec<Result<(Row, Option<MachineRow>)>> = chunk
+            .par_iter()
+            .map(|&i| compute_row(&sh, spec, i))
+            .collect();
+        for r in part {
+            let (row, m) = r?;
+            rows.push(row);
+            machine.extend(m);
+        }
+        if let Some(p) = progress.as_mut() {
+            p.inc(chunk.len() as u64);
+        }
+    }
+    if let Some(p) = progress {
+        p.finish();
+    }
+    Ok(FormMatrix {
+        scene: scene.name.clone(),
+        n: scene.patches.len(),
+        rows,
+        machine,
+    })
+}
+
+/// One row's line of the summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct RowSummary {
+    pub source: u32,
+    pub nonzeros: usize,
+    pub escaped_weight: f64,
+    /// Weight on patches' back sides.
+    pub back_weight: f64,
+    pub row_sum: f64,
+    #[serde(flatten, skip_serializing_if = "Option::is_none")]
+    pub machine: Option<MachineRow>,
+}
+
+/// The machine's totals over the rows.
+#[derive(Clone, Debug, Serialize)]
+pub struct MachineTotals {
+    pub cycles: u64,
+    pub clock_mhz: f64,
+    /// cycles / clock: the machine's time for these rows.
+    pub time_s: f64,
+    pub patch_loads: u64,
+    pub jobs: u64,
+    /// Σ busy over Σ stage-cycles, weighted by each row's cycles.
+    pub pipeline_efficiency: f64,
+    pub mismatches_vs_fixed: u64,
+}
+
+/// The JSON summary written beside the matrix.
+#[derive(Clone, Debug, Serialize)]
+pub struct Summary {
+    pub scene: String,
+    pub patches: usize,
+    pub model: Model,
+    pub rays_per_source: usize,
+    pub directions: Directions,
+    pub seed: u64,
+    pub sources: [u32; 2],
+    pub nonzeros: usize,
+    pub max_row_sum_error: f64,
+    pub max_escaped_weight: f64,
+    /// The configuration the fixed and machine models ran on.
+    pub config: Option<MachineConfig>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub machine: Option<MachineTotals>,
+    pub rows: Vec<RowSummary>,
+}
+
+impl Summary {
+    /// The summary of `m` computed for `spec` on `cfg`, the machine's time at `clock_mhz`.
+    pub fn new(m: &FormMatrix, spec: &MatrixSpec, cfg: &MachineConfig, clock_mhz: f64) -> Summary {
+        let rows: Vec<RowSummary> = m
+            .rows
+            .iter()
+            .enumerate()
+            .map(|(k, r)| RowSummary {
+                source: r.source,
+                nonzeros: r.entries.len(),
+                escaped_weight: r.escaped,
+                back_weight: r.back,
+                row_sum: r.sum(),
+                machine: m.machine.get(k).copied(),
+            })
+            .collect();
+        let machine = (spec.model == Model::Machine).then(|| {
+            let cycles: u64 = m.machine.iter().map(|x| x.cycles).sum();
+            let busy: f64 = m
+                .machine
+                .iter()
+                .map(|x| x.pipeline_efficiency * x.cycles as f64)
+                .sum();
+            MachineTotals {
+                cycles,
+                clock_mhz,
+                time_s: cycles as f64 / (clock_mhz * 1e6),
+                patch_loads: m.machine.iter().map(|x| x.patch_loads).sum(),
+                jobs: m.machine.iter().map(|x| x.jobs).sum(),
+                pipeline_efficiency: if cycles > 0 {
+                    busy / cycles as f64
+                } else {
+                    0.0
+                },
+                mismatches_vs_fixed: m.machine.iter().map(|x| x.mismatches_vs_fixed).sum(),
+            }
+        });
+        Summary {
+            scene: m.scene.clone(),
+            patches: m.n,
+            model: spec.model,
+            rays_per_source: spec.rays,
+            directions: spec.directions,
+            seed: spec.seed,
+            sources: [spec.sources.start, spec.sources.end],
+            nonzeros: m.nnz(),
+            max_row_sum_error: rows
+                .iter()
+                .fold(0.0f64, |a, r| a.max((r.row_sum - 1.0).abs())),
+            max_escaped_weight: rows.iter().fold(0.0f64, |a, r| a.max(r.escaped_weight)),
+            config: (spec.model != Model::Float).then_some(*cfg),
+            machine,
+            rows,
+        }
+    }
+
+    /// `Err(Error::Check)` when some row of the machine differs from the untimed model.
+    pub fn verdict(&self) -> Result<()> {
+        let bad: Vec<u32> = self
+            .rows
+            .iter()
+            .filter(|r| r.machine.is_some_and(|m| m.mismatches_vs_fixed > 0))
+            .map(|r| r.source)
+            .collect();
+        if !bad.is_empty() {
+            return Err(Error::Check(format!(
+                "the machine differs from the fixed-point model in rows {bad:?}"
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// The summary's path beside a matrix file: the same stem, extension `.json`.
+pub fn summary_path(matrix: &Path) -> PathBuf {
+    matrix.with_extension("json")
+}
+
+/// Writes the matrix (Matrix Market) to `path` and its summary beside it, atomically.
+/// A matrix path whose summary would be itself is `Error::Param` `out`.
+pub fn write(path: &Path, m: &FormMatrix, summary: &Summary) -> Result<()> {
+    let sp = summary_path(path);
+    if sp == path {
+        return Err(Error::param(
+            "out",
+            format!(
+                "{}: the summary would overwrite it; name it *.mtx",
+                path.display()
+            ),
+        ));
+    }
+    write_atomic(path, &m.matrix_market())?;
+    write_atomic(&sp, json_string(summary).as_bytes())
+}
+
+/// Reads a full matrix of `scene` from a Matrix Market file: it must be n × n for the
+/// scene's n patches, every entry finite and in [0, 1], every row sum at most 1 (+1e-9);
+/// when its summary lies beside it, it must name the same scene. The escaped weight of a
+/// row is 1 − its sum (the file does not tell escaped from back-side weight). Bad files are `Error::Input` naming the file and what is wrong.
+pub fn read(path: &Path, scene: &Scene) -> Result<FormMatrix> {
+    let text = std::fs::read(path).map_err(|e| Error::unreadable(path, e))?;
+    let tri: sprs::TriMat<f64> = sprs::io::read_matrix_market_from_bufread(&mut text.as_slice())
+        .map_err(|e| Error::input(path, "file", format!("not a Matrix Market matrix: {e}")))?;
+    let n = scene.patches.len();
+    if tri.rows() != n || tri.cols() != n {
+        return Err(Error::input(
+            path,
+            "size",
+            format!(
+                "{}×{} does not fit scene {} with {n} patches (a matrix of another scene?)",
+                tri.rows(),
+                tri.cols(),
+                scene.name
+            ),
+        ));
+    }
+    let sp = summary_path(path);
+    if let Ok(s) = std::fs::read_to_string(&sp) {
+        #[derive(Deserialize)]
+        struct Head {
+            scene: String,
+        }
+        let head: Head = serde_json::from_str(&s)
+            .map_err(|e| Error::input(&sp, "file", format!("not a matrix summary: {e}")))?;
+        if head.scene != scene.name {
+            return Err(Error::input(
+                path,
+                "scene",
+                format!(
+                    "computed for scene {} (see {}), not {}",
+                    head.scene,
+                    sp.display(),
+                    scene.name
+                ),
+            ));
+        }
+    }
+    let mut dense: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
+    for (v, (i, j)) in tri.triplet_iter() {
+        if !v.is_finite() || !(0.0..=1.0).contains(v) {
+            return Err(Error::input(
+                path,
+                format!("entry ({}, {})", i + 1, j + 1),
+                format!("{v} is not a form factor (finite, in [0, 1])"),
+            ));
+        }
+        dense[i].push((j as u32, *v));
+    }
+    let mut rows = Vec::with_capacity(n);
+    for (i, mut e) in dense.into_iter().enumerate() {
+        e.sort_by_key(|x| x.0);
+        if e.windows(2).any(|w| w[0].0 == w[1].0) {
+            return Err(Error::input(
+                path,
+                format!("row {}", i + 1),
+                "an entry is listed twice",
+            ));
+        }
+        let s: f64 = e.iter().map(|x| x.1).sum();
+        if s > 1.0 + 1e-9 {
+            return Err(Error::input(
+                path,
+                format!("row {}", i + 1),
+                format!("sums to {s}, above 1"),
+            ));
+        }
+        rows.push(Row {
+            source: i as u32,
+            entries: e,
+            escaped: (1.0 - s).max(0.0),
+            back: 0.0,
+        });
+    }
+    Ok(FormMatrix {
+        scene: scene.name.clone(),
+        n,
+        rows,
+        machine: Vec::new(),
+    })
+}
