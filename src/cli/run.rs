@@ -3,9 +3,10 @@
 
 use super::args::{MachineArgs, OnOff, SceneSourceArgs};
 use crate::config;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::machine::run::{execute, RunSpec, Waveform};
 use crate::machine::vcd::{ScopeFilter, VcdOptions, Window};
+use crate::output::{check_outputs, Output};
 use crate::scene::Scene;
 use std::path::PathBuf;
 
@@ -19,7 +20,8 @@ pub struct RunArgs {
     /// Hi_Low_Ratio: the machine casts ratio × 969 rays.
     #[arg(long, default_value_t = 10)]
     pub ratio: usize,
-    /// Write the statistics (and the resolved configuration) as JSON here.
+    /// Write the statistics (and the resolved configuration) as JSON here (`-`: standard
+    /// output).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Dynamic workload balancing: overrides the configuration's [balance] enabled.
@@ -41,6 +43,7 @@ pub struct RunArgs {
 
 /// Runs `shellsim run`.
 pub fn run(a: &RunArgs) -> Result<()> {
+    check_outputs(&a.outputs()?)?;
     let scene = Scene::load(&a.input.scene)?;
     let mut cfg = config::load(&a.machine.source())?;
     if let Some(b) = a.balance {
@@ -65,16 +68,43 @@ pub fn run(a: &RunArgs) -> Result<()> {
         print_waveform(w);
     }
     let s = &out.stats;
-    println!(
+    crate::outln!(
         "{}: {} rays, {} cycles, pipeline efficiency {:.3}, {} patch loads, {} jobs, {} mismatches vs fixed, {:.2} M cycles/s",
         s.scene, s.rays, s.cycles, s.pipeline_efficiency, s.patch_loads, s.jobs, s.mismatches_vs_fixed, s.sim_rate_hz / 1e6
     );
     s.verdict()
 }
 
+impl RunArgs {
+    /// The outputs asked for (the .gtkw beside the VCD among them), for the check before
+    /// any work; a VCD on standard output is a usage error (its .gtkw needs a directory).
+    pub fn outputs(&self) -> Result<Vec<Output>> {
+        let mut v: Vec<Output> = self
+            .json
+            .iter()
+            .map(|p| Output::file("--json", p))
+            .collect();
+        if let Some(p) = &self.vcd {
+            if crate::output::is_stdout(p) {
+                return Err(Error::Usage(
+                    "--vcd -: the VCD needs a file name (its .gtkw is written beside it)".into(),
+                ));
+            }
+            v.push(Output::file("--vcd", p));
+            if crate::output::is_file_path(p) {
+                v.push(Output::file(
+                    "--vcd (its .gtkw)",
+                    &crate::machine::gtkw::path_for(p),
+                ));
+            }
+        }
+        Ok(v)
+    }
+}
+
 /// The waveform line.
 pub fn print_waveform(w: &Waveform) {
-    println!(
+    crate::outln!(
         "waveform: {} ({} signals, {} bytes) and {}",
         w.vcd.display(),
         w.signals,

@@ -312,7 +312,7 @@ pub fn check_scene(
     cell: f64,
 ) -> Result<CheckReport> {
     spec.validate(scene, file)?;
-    let tracer = Tracer::new(scene, cell)?;
+    let tracer = Tracer::new(scene, cell).map_err(|e| e.for_scene(file))?;
     let host = HostFixed::new(scene, file, datapath, cell)?;
     let set = spec.rays(scene);
     Ok(check(&tracer, &host, &set, spec.source, Default::default()))

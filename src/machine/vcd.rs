@@ -318,7 +318,7 @@ impl VcdWriter {
         let done = (|| -> io::Result<u64> {
             w.flush()?;
             let f = w.writer().get_ref();
-            f.sync_all()?;
+            crate::output::sync_file(f)?;
             let bytes = f.metadata()?.len();
             Ok(bytes)
         })();

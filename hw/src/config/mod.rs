@@ -45,7 +45,10 @@ impl MachineConfig {
                 .span()
                 .map(|s| line_column(text, s.start))
                 .unwrap_or_else(|| "toml".into()),
-            what: e.message().to_string(),
+            what: match e.message().trim() {
+                "" => "incomplete: a value or the rest of the statement is missing here".into(),
+                m => m.to_string(),
+            },
         })?;
         cfg.validate()?;
         Ok(cfg)
