@@ -185,6 +185,11 @@ pub fn simulate(
         records,
         sectors,
     } = *input;
+    crate::limits::check_machine_memory(Machine::memory_estimate(
+        cfg,
+        host.scene.patches.len(),
+        records.len(),
+    ))?;
     let start = std::time::Instant::now();
     let mut machine = Machine::new(*cfg, &host.scene, records, sectors, spec.source);
     machine

@@ -214,7 +214,7 @@ impl Scene {
 
     /// Reads and validates a JSON scene.
     pub fn load_json(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::unreadable(path, e))?;
+        let text = crate::limits::read_input_string(path)?;
         Scene::from_json_str(&text, path)
     }
 

@@ -250,7 +250,7 @@ fn prepare_mtl(text: &str) -> std::result::Result<String, String> {
 
 /// Reads an OBJ file into a validated scene.
 pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::unreadable(path, e))?;
+    let bytes = crate::limits::read_input(path)?;
     let text = String::from_utf8(bytes).map_err(|e| {
         Error::input(
             path,
@@ -318,9 +318,11 @@ pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)
     }
     report.warnings = warnings.into_inner();
     let (models, materials) = loaded.map_err(|e| match locate(&text) {
-        Some((place, what)) => {
-            Error::input(path, place, format!("not a readable OBJ file: {what}"))
-        }
+        Some((place, what)) => Error::input(
+            path,
+            place,
+            format!("not a readable OBJ file: {what} ({e})"),
+        ),
         None => Error::input(path, "file", format!("not a readable OBJ file: {e}")),
     })?;
     // Only a missing library can have failed here; its warning is already in the report.

@@ -8,7 +8,7 @@ use crate::error::short;
 use glam::DVec3;
 
 /// Relative tolerance of the planarity check: a vertex may lie off the polygon's plane by
-/// this fraction of the polygon's size, [`diameter`] (rounding in generated scenes is ~1e-16).
+/// this fraction of the polygon's [`size`] (rounding in generated scenes is ~1e-16).
 pub const PLANARITY_TOL: f64 = 1e-9;
 
 /// Largest coordinate magnitude a scene may use: beyond it, areas and plane equations
@@ -27,10 +27,28 @@ pub fn area_vector(v: &[DVec3]) -> DVec3 {
     n
 }
 
-/// The polygon's size: the diagonal of its vertices' bounding box (at least the longest
-/// distance between two vertices, at most √3 times it). Linear in the vertices, so a face
-/// of 200,000 vertices is checked in milliseconds (the pairwise diameter took a minute).
+/// The longest distance between two vertices.
 pub fn diameter(v: &[DVec3]) -> f64 {
+    let mut d: f64 = 0.0;
+    for i in 0..v.len() {
+        for j in i + 1..v.len() {
+            d = d.max(v[i].distance(v[j]));
+        }
+    }
+    d
+}
+
+/// Polygons of more vertices than this are measured by [`size`]'s bounding box.
+pub const EXACT_DIAMETER_MAX: usize = 64;
+
+/// The polygon's size for the tolerances: its [`diameter`] up to [`EXACT_DIAMETER_MAX`]
+/// vertices (every patch), else the diagonal of its bounding box (at least the diameter, at
+/// most √3 times it). Linear in the vertices, so a face of 200,000 vertices is checked in
+/// milliseconds (the pairwise diameter took a minute).
+pub fn size(v: &[DVec3]) -> f64 {
+    if v.len() <= EXACT_DIAMETER_MAX {
+        return diameter(v);
+    }
     let (lo, hi) = v.iter().fold(
         (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
         |(lo, hi), p| (lo.min(*p), hi.max(*p)),
@@ -85,7 +103,7 @@ pub fn check_shape(v: &[DVec3]) -> Result<(), String> {
             ));
         }
     }
-    let diam = diameter(v);
+    let diam = size(v);
     let av = area_vector(v);
     let area = 0.5 * av.length();
     if area.is_nan() || area <= 1e-12 * diam * diam || area == 0.0 {
@@ -146,7 +164,7 @@ mod tests {
             .collect();
         // The size is the bounding box's diagonal (2√2 for the unit circle), not the
         // pairwise maximum (2).
-        assert!((diameter(&v) - 2.0 * 2f64.sqrt()).abs() < 1e-9);
+        assert!((size(&v) - 2.0 * 2f64.sqrt()).abs() < 1e-9);
         let e = check(&v).unwrap_err();
         assert!(e.contains("not convex"), "{e}");
         // A coarser circle is valid.

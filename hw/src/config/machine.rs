@@ -139,7 +139,7 @@ impl MachineTable {
         if !(self.cell_size.is_finite() && self.cell_size > 0.0) {
             return Err(err(
                 "cell_size",
-                format!("{} must be a finite length above 0", self.cell_size),
+                format!("{:?} must be a finite length above 0", self.cell_size),
             ));
         }
         Ok(())
