@@ -250,7 +250,16 @@ fn prepare_mtl(text: &str) -> std::result::Result<String, String> {
 
 /// Reads an OBJ file into a validated scene.
 pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)> {
-    let bytes = crate::limits::read_input(path)?;
+    import_bytes(crate::limits::read_input(path)?, path, opts)
+}
+
+/// [`import`] of OBJ text already read from `path` (which names the file in errors and
+/// whose directory holds its material libraries).
+pub fn import_bytes(
+    bytes: Vec<u8>,
+    path: &Path,
+    opts: &ImportOptions,
+) -> Result<(Scene, ImportReport)> {
     let text = String::from_utf8(bytes).map_err(|e| {
         Error::input(
             path,
