@@ -7,7 +7,7 @@
 //! every output path of a command before any work starts (a directory where a file is
 //! wanted, a missing or read-only parent, two options naming one file). Temporary files
 //! are listed in a registry that the SIGINT/SIGTERM handler ([`install_signal_handlers`])
-//! removes before exiting with 130/143. Standard output is written through [`out!`]/[`outln!`],
+//! removes before exiting with 130/143. Standard output is written through `out!`/`outln!`,
 //! which never panic on a closed pipe: the failure is kept and reported at the end
 //! ([`stdout_result`]). JSON reports are pretty-printed with a final newline.
 
@@ -425,17 +425,18 @@ pub fn stdout_result() -> Result<()> {
 }
 
 /// `print!` through [`print`].
-#[macro_export]
 macro_rules! out {
     ($($t:tt)*) => { $crate::output::print(format_args!($($t)*)) };
 }
 
 /// `println!` through [`print`].
-#[macro_export]
 macro_rules! outln {
     () => { $crate::output::print(format_args!("\n")) };
     ($($t:tt)*) => { $crate::output::print(format_args!("{}\n", format_args!($($t)*))) };
 }
+
+#[allow(unused_imports)]
+pub(crate) use {out, outln};
 
 /// Installs the SIGINT/SIGTERM handler: it removes every temporary file still listed (a
 /// VCD being streamed, a report not yet renamed into place), says so on standard error and

@@ -32,17 +32,17 @@ pub fn run(a: &CheckArgs) -> Result<()> {
 }
 
 fn print_check(r: &CheckReport) {
-    crate::outln!("{}: {} rays, {} mismatches", r.format, r.rays, r.mismatches);
-    crate::outln!(
+    crate::output::outln!("{}: {} rays, {} mismatches", r.format, r.rays, r.mismatches);
+    crate::output::outln!(
         "  explained: {} overflow, {} near the origin, {} grazing, {} near an edge or vertex, {} tie in t; unexplained: {}",
         r.classes.overflow, r.classes.near_origin, r.classes.grazing, r.classes.near_edge, r.classes.tie, r.unexplained_mismatches
     );
-    crate::outln!(
+    crate::output::outln!(
         "  t error: max {:.2} LSB, rms {:.2} LSB; form factors: max error {:.2e} (sampling error {:.2e})",
         r.t_err_max_lsb, r.t_err_rms_lsb, r.ff_err_max, r.ff_sampling_err
     );
     let e = &r.exceptions;
-    crate::outln!(
+    crate::output::outln!(
         "  exceptions: {} overflow, {} near-zero denominators, {} t saturated",
         e.overflow,
         e.near_zero_denominator,

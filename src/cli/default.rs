@@ -25,14 +25,14 @@ pub fn run() -> Result<()> {
     let mismatches = j.grid_mismatches;
     let (f, truth, sigma) = (j.analytic.estimate, j.analytic.truth, j.analytic.sigma);
     let source = j.source;
-    crate::outln!(
+    crate::output::outln!(
         "shellsim: scene2 (808 patches) from patch {source}, machine hw/configs/paper.toml"
     );
-    crate::outln!();
-    crate::outln!("{:<46} {:>16} {:>8}", "check", "value", "verdict");
+    crate::output::outln!();
+    crate::output::outln!("{:<46} {:>16} {:>8}", "check", "value", "verdict");
     let verdict = |ok: bool| if ok { "ok" } else { "FAILED" };
     let row = |name: &str, value: String, ok: Option<bool>| {
-        crate::outln!("{:<46} {:>16} {:>8}", name, value, ok.map_or("", verdict));
+        crate::output::outln!("{:<46} {:>16} {:>8}", name, value, ok.map_or("", verdict));
     };
     row("machine: rays", m.rays.to_string(), None);
     row("machine: cycles", m.cycles.to_string(), None);
@@ -92,8 +92,8 @@ pub fn run() -> Result<()> {
         Some((f - truth).abs() <= 3.0 * sigma),
     );
     row("  analytic (Lambert)", format!("{truth:.10}"), None);
-    crate::outln!();
-    crate::outln!(
+    crate::output::outln!();
+    crate::output::outln!(
         "waveform: gtkwave waves/default.vcd waves/default.gtkw; statistics: waves/default.json ({:.2} M simulated cycles/s)",
         m.sim_rate_hz / 1e6
     );

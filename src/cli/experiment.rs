@@ -41,8 +41,8 @@ pub fn run(a: &ExperimentArgs) -> Result<()> {
         base: &base,
     };
     let out = experiment(a.which, &w)?;
-    crate::out!("{}", out.summary);
+    crate::output::out!("{}", out.summary);
     out.write(&a.out)?;
-    crate::outln!("wrote {}/{}.csv and .svg", a.out.display(), out.stem);
+    crate::output::outln!("wrote {}/{}.csv and .svg", a.out.display(), out.stem);
     Ok(())
 }

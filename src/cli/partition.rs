@@ -110,7 +110,7 @@ pub fn run(a: &PartitionArgs) -> Result<()> {
     let wall = start.elapsed().as_secs_f64();
     let report = Report::new(&p);
     report.print();
-    crate::outln!("({wall:.2} s)");
+    crate::output::outln!("({wall:.2} s)");
     if let Some(out) = &a.json {
         write_atomic(out, report.to_json().as_bytes())?;
     }

@@ -67,7 +67,7 @@ pub fn run(a: &ReferenceArgs) -> Result<()> {
 }
 
 fn print_reference(r: &ReferenceReport, scene: &Scene) {
-    crate::outln!(
+    crate::output::outln!(
         "{} from patch {}: {} {:?} rays, {} escaped, ΣF = {:.12}",
         r.scene,
         r.source,
@@ -76,7 +76,7 @@ fn print_reference(r: &ReferenceReport, scene: &Scene) {
         r.escaped,
         r.weight_sum
     );
-    crate::outln!(
+    crate::output::outln!(
         "{:.3} s, {:.3} M rays/s, {:.1} cells and {:.1} patch tests per ray",
         r.wall_s,
         r.rays_per_s / 1e6,
@@ -85,9 +85,9 @@ fn print_reference(r: &ReferenceReport, scene: &Scene) {
     );
     let mut top = r.form_factors.clone();
     top.sort_by(|a, b| b.value.total_cmp(&a.value).then(a.patch.cmp(&b.patch)));
-    crate::outln!("{:>8}  {:>12}  {:>10}", "patch", "F", "area");
+    crate::output::outln!("{:>8}  {:>12}  {:>10}", "patch", "F", "area");
     for f in top.iter().take(10) {
-        crate::outln!(
+        crate::output::outln!(
             "{:>8}  {:>12.8}  {:>10.6}",
             f.patch,
             f.value,
@@ -95,6 +95,6 @@ fn print_reference(r: &ReferenceReport, scene: &Scene) {
         );
     }
     if top.len() > 10 {
-        crate::outln!("{:>8}  ({} more patches hit)", "…", top.len() - 10);
+        crate::output::outln!("{:>8}  ({} more patches hit)", "…", top.len() - 10);
     }
 }

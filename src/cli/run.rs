@@ -68,7 +68,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         print_waveform(w);
     }
     let s = &out.stats;
-    crate::outln!(
+    crate::output::outln!(
         "{}: {} rays, {} cycles, pipeline efficiency {:.3}, {} patch loads, {} jobs, {} mismatches vs fixed, {:.2} M cycles/s",
         s.scene, s.rays, s.cycles, s.pipeline_efficiency, s.patch_loads, s.jobs, s.mismatches_vs_fixed, s.sim_rate_hz / 1e6
     );
@@ -104,7 +104,7 @@ impl RunArgs {
 
 /// The waveform line.
 pub fn print_waveform(w: &Waveform) {
-    crate::outln!(
+    crate::output::outln!(
         "waveform: {} ({} signals, {} bytes) and {}",
         w.vcd.display(),
         w.signals,

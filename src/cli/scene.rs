@@ -55,7 +55,7 @@ pub fn run(c: SceneCmd) -> Result<()> {
             let scene = gen::generate(kind, seed);
             scene.validate(&out)?;
             scene.save_json(&out)?;
-            crate::outln!(
+            crate::output::outln!(
                 "{}: {} patches (seed {seed}) written to {}",
                 kind.name(),
                 scene.patches.len(),
@@ -80,8 +80,8 @@ pub fn run(c: SceneCmd) -> Result<()> {
                 eprintln!("warning: {}", crate::error::shown(w));
             }
             scene.save_json(&out)?;
-            crate::outln!("{}: {}", file.display(), report.summary());
-            crate::outln!("written to {}", out.display());
+            crate::output::outln!("{}: {}", file.display(), report.summary());
+            crate::output::outln!("written to {}", out.display());
             Ok(())
         }
     }
@@ -116,21 +116,21 @@ fn info(file: &Path, cell: f64) -> Result<()> {
         .iter()
         .filter(|p| p.emission.is_nonzero())
         .count();
-    crate::outln!("scene        {}", crate::error::shown(&scene.name));
-    crate::outln!(
+    crate::output::outln!("scene        {}", crate::error::shown(&scene.name));
+    crate::output::outln!(
         "bounds       {:?} - {:?}",
         scene.bounds.lo.to_array(),
         scene.bounds.hi.to_array()
     );
-    crate::outln!(
+    crate::output::outln!(
         "patches      {} ({} triangles, {} quads, {} emitting)",
         scene.patches.len(),
         tris,
         scene.patches.len() - tris,
         emitters
     );
-    crate::outln!("total area   {:.6}", scene.total_area());
-    crate::outln!(
+    crate::output::outln!("total area   {:.6}", scene.total_area());
+    crate::output::outln!(
         "grid         {}×{}×{} cells of {}, {} nonempty, {} cell entries ({:.2} per patch)",
         g.dims[0],
         g.dims[1],

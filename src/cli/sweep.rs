@@ -93,7 +93,7 @@ pub fn run(c: &SweepCmd) -> Result<()> {
         cfg.machine.cell_size,
         a.from..=a.to,
     )?;
-    crate::outln!(
+    crate::output::outln!(
         "{:>4} {:>10} {:>12} {:>12} {:>11} {:>8}",
         "F",
         "mismatches",
@@ -103,7 +103,7 @@ pub fn run(c: &SweepCmd) -> Result<()> {
         "unexpl."
     );
     for r in &rows {
-        crate::outln!(
+        crate::output::outln!(
             "{:>4} {:>10} {:>12.3e} {:>12.3e} {:>11} {:>8}",
             r.frac_bits,
             r.report.mismatches,
@@ -115,15 +115,17 @@ pub fn run(c: &SweepCmd) -> Result<()> {
     }
     match sweep::recommended(&rows) {
         Some(b) => {
-            crate::outln!("fewest bits whose form-factor error stays under the sampling error: {b}")
+            crate::output::outln!(
+                "fewest bits whose form-factor error stays under the sampling error: {b}"
+            )
         }
         None => {
-            crate::outln!(
+            crate::output::outln!(
                 "no width in the sweep keeps the form-factor error under the sampling error"
             )
         }
     }
     sweep::write(&a.out, &stem, &rows, &sweep::title(&scene, &spec))?;
-    crate::outln!("wrote {}/{stem}.csv and .svg", a.out.display());
+    crate::output::outln!("wrote {}/{stem}.csv and .svg", a.out.display());
     Ok(())
 }

@@ -215,7 +215,7 @@ impl Report {
 
     /// The terminal summary.
     pub fn print(&self) {
-        crate::outln!(
+        crate::output::outln!(
             "{} from patch {}: {} sections × {} CTUs, {} low-res rays ({}×{} subregions, {} granularity), ratio {} → {} high-res rays",
             self.scene,
             self.source,
@@ -231,7 +231,7 @@ impl Report {
             self.ratio,
             self.rays_high
         );
-        crate::outln!(
+        crate::output::outln!(
             "{:>7}  {:>15}  {:>15}  {:>8}  {:>7}  {:>12}  {:>8}  {:>7}",
             "section",
             "θ (deg)",
@@ -243,7 +243,7 @@ impl Report {
             "loads"
         );
         for s in &self.sections {
-            crate::outln!(
+            crate::output::outln!(
                 "{:>7}  {:>6.2}–{:<8.2}  {:>6.2}–{:<8.2}  {:>8}  {:>7}  {:>12}  {:>+7.1}%  {:>7}",
                 s.part.index,
                 s.part.theta_deg[0],
@@ -259,11 +259,11 @@ impl Report {
                 s.part.patch_loads
             );
         }
-        crate::outln!(
+        crate::output::outln!(
             "imbalance (max/mean intersections per section): {:.3} actual, {:.3} predicted; worst CTU imbalance (traversals) {:.3}",
             self.imbalance, self.predicted_imbalance, self.sector_imbalance
         );
-        crate::outln!(
+        crate::output::outln!(
             "patch loads: {} with shelling, {} ray by ray (ratio {:.3}); {} intersections, {} traversals",
             self.patch_loads,
             self.patch_loads_baseline,
@@ -272,7 +272,7 @@ impl Report {
             self.traversals
         );
         if self.forced_splits > 0 {
-            crate::outln!(
+            crate::output::outln!(
                 "note: {} cut(s) fell where the {} granularity allows none (more parts than positions); those parts are cut geometrically",
                 self.forced_splits,
                 match self.granularity {
@@ -281,7 +281,7 @@ impl Report {
                 }
             );
         }
-        crate::outln!(
+        crate::output::outln!(
             "nearest hits vs float tracer: {} mismatches",
             self.nearest_hit_mismatches
         );
