@@ -104,5 +104,81 @@ fn bench(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, bench);
+/// The cycle model against the untimed model on the same jobs (issue 13: target ≤ 3×):
+/// scene2, paper.toml, Hi_Low_Ratio 10. Two untimed baselines, both over the run's own ray
+/// records: `untimed_nearest_grid` is what `run` calls to check every ray (the grid walk
+/// stops at the nearest hit, so it tests far fewer (ray, patch) pairs than the machine);
+/// `untimed_same_jobs` runs the datapath (`intersect`) on as many (ray, patch) pairs as the
+/// machine's ICUs do — each ray against patches in id order, wrapping.
+fn cycle_vs_untimed(c: &mut Criterion) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
+    let scene = Scene::load_json(&path).expect("scenes/scene2.json");
+    let cfg = shellsim::config::machine(None).unwrap();
+    let spec = RunSpec {
+        source: 0,
+        ratio: 10,
+        order: TickOrder::Forward,
+    };
+    let prep = shellsim::machine::run::prepare(&scene, &path, &cfg, &spec).unwrap();
+    let mut m =
+        shellsim_hw::machine::Machine::new(cfg, &prep.host.scene, &prep.records, &prep.sectors, 0);
+    m.run(TickOrder::Forward, None).unwrap();
+    let jobs: u64 = m
+        .clusters
+        .iter()
+        .flat_map(|c| &c.ctus)
+        .map(|c| c.stats.jobs_issued)
+        .sum();
+    eprintln!(
+        "scene2, paper.toml, ratio 10: {} cycles, {} rays, {} jobs",
+        m.cycle,
+        prep.records.len(),
+        jobs
+    );
+    let fs = &prep.host.scene;
+    let f = fs.formats;
+    let mut g = c.benchmark_group("cycle_vs_untimed");
+    g.sample_size(10);
+    g.bench_function("cycle_model", |b| {
+        b.iter(|| {
+            let mut m =
+                shellsim_hw::machine::Machine::new(cfg, fs, &prep.records, &prep.sectors, 0);
+            m.run(TickOrder::Forward, None).unwrap();
+            black_box(m.cycle)
+        })
+    });
+    g.bench_function("untimed_nearest_grid", |b| {
+        b.iter(|| {
+            let mut e = Exceptions::default();
+            let hits = prep
+                .records
+                .iter()
+                .filter(|r| fs.nearest_grid(r, Some(0), &mut e).0.is_some())
+                .count();
+            black_box(hits)
+        })
+    });
+    g.bench_function("untimed_same_jobs", |b| {
+        b.iter(|| {
+            let mut exc = Exceptions::default();
+            let (mut n, mut done) = (0u64, 0u64);
+            let np = fs.patches.len();
+            let per_ray = (jobs as usize).div_ceil(prep.records.len());
+            for (i, r) in prep.records.iter().enumerate() {
+                for k in 0..per_ray {
+                    if done == jobs {
+                        break;
+                    }
+                    let p = &fs.patches[(i + k) % np];
+                    n += intersect(r, p, &f, &mut exc).is_some() as u64;
+                    done += 1;
+                }
+            }
+            black_box(n)
+        })
+    });
+    g.finish();
+}
+
+criterion_group!(benches, bench, cycle_vs_untimed);
 criterion_main!(benches);

@@ -9,10 +9,16 @@
 //!
 //! The defaults of everything the configuration holds (the partition's shell radius and
 //! subshell threshold among them) come from [`built_in`].
+//!
+//! Lengths may be `"auto"`: [`resolve`] derives them from the scene's scale (its largest
+//! extent) by the rules below, whose result on the unit cube is Table 12.1's — an explicit
+//! number in the file or on the command line wins. The resolved configuration is what runs
+//! and what is written beside results; the hardware gets it in its own units
+//! ([`in_hardware_units`]: lengths over the scale).
 
 use crate::error::{Error, Result};
-use shellsim_hw::config::MachineConfig;
 use shellsim_hw::config::PAPER_TOML;
+use shellsim_hw::config::{Length, MachineConfig};
 use shellsim_hw::DatapathConfig;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -128,4 +134,57 @@ pub fn with_frac_bits(mut cfg: DatapathConfig, bits: u32) -> Result<DatapathConf
     cfg.formats()
         .map_err(|e| Error::param("frac_bits", format!("{bits}: {}: {}", e.key, e.what)))?;
     Ok(cfg)
+}
+
+/// Grid cells along the scene's largest extent when `cell_size` is `auto` (Table 12.1: the
+/// unit cube in cells of 0.05).
+pub const AUTO_CELLS_PER_SCALE: f64 = 20.0;
+
+/// The shell radius over the scene's scale when `shell_radius` is `auto`: Table 12.1's
+/// 0.289 for the unit cube (its diagonal over 6, √3/6 = 0.2887, to the paper's three digits).
+pub const AUTO_SHELL_PER_SCALE: f64 = 0.289;
+
+/// The cell size of `cell_size` for a scene of `scale`: the value given, or the rule's.
+pub fn cell_size(cell: Length, scale: f64) -> f64 {
+    cell.or(scale / AUTO_CELLS_PER_SCALE)
+}
+
+/// The shell radius of `shell_radius` for a scene of `scale`.
+pub fn shell_radius(radius: Length, scale: f64) -> f64 {
+    radius.or(AUTO_SHELL_PER_SCALE * scale)
+}
+
+/// `cfg` with every `auto` length derived for a scene of `scale` (its largest extent), in
+/// scene units. It is validated as the hardware will see it ([`in_hardware_units`]): the
+/// shell radius over the scale must fit the t format; an error names the key.
+pub fn resolve(cfg: &MachineConfig, scale: f64) -> Result<MachineConfig> {
+    let mut r = *cfg;
+    r.machine.cell_size = Length::Value(cell_size(cfg.machine.cell_size, scale));
+    r.machine.shell_radius = Length::Value(shell_radius(cfg.machine.shell_radius, scale));
+    scaled(&r, scale).validate().map_err(|e| {
+        Error::input(
+            Path::new("<configuration resolved for the scene>"),
+            e.key,
+            format!(
+                "{} (in units of the scene's largest extent, {scale})",
+                e.what
+            ),
+        )
+    })?;
+    Ok(r)
+}
+
+/// A resolved configuration in the hardware's units: lengths over the scene's `scale`
+/// (the hardware's coordinates are the scene's, relative to the grid origin, over the
+/// scale). On the unit cube (scale 1) it is the resolved `cfg` itself.
+pub fn in_hardware_units(cfg: &MachineConfig, scale: f64) -> Result<MachineConfig> {
+    Ok(scaled(&resolve(cfg, scale)?, scale))
+}
+
+/// `r` (resolved) with its lengths over `scale`.
+fn scaled(r: &MachineConfig, scale: f64) -> MachineConfig {
+    let mut h = *r;
+    h.machine.cell_size = Length::Value(r.machine.cell_size.value() / scale);
+    h.machine.shell_radius = Length::Value(r.machine.shell_radius.value() / scale);
+    h
 }

@@ -6,11 +6,29 @@
 
 mod common;
 
-use common::{check_variant, config, run_variant, spec, Variant};
+use common::{assert_same_run, check_variant, config, run_variant, spec, Variant};
 use shellsim::machine::run::run;
 use shellsim_hw::config::ArbiterPolicy;
 use shellsim_hw::machine::TickOrder;
 use std::path::Path;
+
+/// A matrix cell: clusters, CTUs, arbiter, small buffers, cycle jump; the file's balancing.
+const fn cell(
+    clusters: u32,
+    ctus: u32,
+    arbiter: ArbiterPolicy,
+    small: bool,
+    jump: bool,
+) -> Variant {
+    Variant {
+        clusters,
+        ctus,
+        arbiter,
+        small_buffers: small,
+        jump,
+        balance: None,
+    }
+}
 
 /// One `#[test]` per cell of clusters 1/2/4/8 × CTUs 1/2/4 × both arbiters × small and
 /// paper buffers × cycle jump on and off, in nested modules named by the knobs.
@@ -48,14 +66,7 @@ macro_rules! full_matrix {
     (@j $file:literal, $cn:literal, $kn:literal, $an:ident, $bn:literal; $($j:ident $jn:literal),*) => {$(
         #[test]
         fn $j() {
-            check_variant($file, &Variant {
-                clusters: $cn,
-                ctus: $kn,
-                arbiter: ArbiterPolicy::$an,
-                small_buffers: $bn,
-                jump: $jn,
-                balance: None,
-            });
+            check_variant($file, &cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn));
         }
     )*};
 }
@@ -68,25 +79,11 @@ full_matrix! {
 /// One `#[test]` per listed cell, and the cells as `CELLS` for the coverage check.
 macro_rules! cells {
     ($file:literal; $($name:ident => $cn:literal, $kn:literal, $an:ident, $bn:literal, $jn:literal;)*) => {
-        pub const CELLS: &[Variant] = &[$(Variant {
-            clusters: $cn,
-            ctus: $kn,
-            arbiter: ArbiterPolicy::$an,
-            small_buffers: $bn,
-            jump: $jn,
-            balance: None,
-        }),*];
+        pub const CELLS: &[Variant] = &[$(cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn)),*];
         $(
             #[test]
             fn $name() {
-                check_variant($file, &Variant {
-                    clusters: $cn,
-                    ctus: $kn,
-                    arbiter: ArbiterPolicy::$an,
-                    small_buffers: $bn,
-                    jump: $jn,
-                    balance: None,
-                });
+                check_variant($file, &cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn));
             }
         )*
     };
@@ -158,14 +155,7 @@ mod stress_dense {
 
     #[test]
     fn c2_k1_fixed_priority_small_step() {
-        let v = Variant {
-            clusters: 2,
-            ctus: 1,
-            arbiter: ArbiterPolicy::FixedPriority,
-            small_buffers: true,
-            jump: false,
-            balance: None,
-        };
+        let v = cell(2, 1, ArbiterPolicy::FixedPriority, true, false);
         check_variant("stress-dense.json", &v);
     }
 }
@@ -189,12 +179,7 @@ fn the_cycle_jump_changes_no_statistic(file: &str) {
         a.stats.cycles
     );
     assert_eq!(b.stats.skipped_cycles, 0);
-    assert_eq!(
-        serde_json::to_string(&a.stats).unwrap(),
-        serde_json::to_string(&b.stats).unwrap(),
-        "{file}"
-    );
-    assert_eq!(a.hits, b.hits);
+    assert_same_run(&a, &b, file);
 }
 
 mod cycle_jump {
@@ -224,12 +209,7 @@ fn tick_order_changes_nothing(file: &str, balance: bool, order: TickOrder) {
         );
     }
     let other = run_variant(file, &v, order);
-    assert_eq!(
-        serde_json::to_string(&other.stats).unwrap(),
-        serde_json::to_string(&fwd.stats).unwrap(),
-        "{file} {order:?} balance {balance}"
-    );
-    assert_eq!(other.hits, fwd.hits);
+    assert_same_run(&other, &fwd, &format!("{file} {order:?} balance {balance}"));
 }
 
 mod tick_order {
@@ -253,10 +233,7 @@ mod tick_order {
 fn two_runs_give_identical_json() {
     let a = run_variant("scene2.json", &Variant::PAPER, TickOrder::Forward);
     let b = run_variant("scene2.json", &Variant::PAPER, TickOrder::Forward);
-    assert_eq!(
-        serde_json::to_string(&a.stats).unwrap(),
-        serde_json::to_string(&b.stats).unwrap()
-    );
+    assert_same_run(&a, &b, "scene2, paper.toml, twice");
 }
 
 #[test]

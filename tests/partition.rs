@@ -364,149 +364,51 @@ fn cli_writes_deterministic_json_svg_and_schedule() {
     assert_eq!(sched.jobs(), v["intersections"].as_u64().unwrap());
 }
 
-#[test]
-fn cli_bad_input_exits_2() {
+/// `shellsim partition --scene scenes/scene1.json ARGS` exits 2 and its message holds `want`.
+fn cli_bad_input_exits_2(args: &str, want: &str) {
     let scene = common::scene_path("scene1.json");
-    let scene = scene.to_str().unwrap();
-    let base = ["partition", "--scene", scene];
-    for (extra, want) in [
-        (
-            vec![
-                "--source",
-                "26",
-                "--sections",
-                "2",
-                "--ctus",
-                "2",
-                "--ratio",
-                "1",
-            ],
-            "source patch 26 does not exist",
-        ),
-        (
-            vec![
-                "--source",
-                "0",
-                "--sections",
-                "0",
-                "--ctus",
-                "2",
-                "--ratio",
-                "1",
-            ],
-            "--sections 0",
-        ),
-        (
-            vec![
-                "--source",
-                "0",
-                "--sections",
-                "2",
-                "--ctus",
-                "0",
-                "--ratio",
-                "1",
-            ],
-            "--ctus 0",
-        ),
-        (
-            vec![
-                "--source",
-                "0",
-                "--sections",
-                "2",
-                "--ctus",
-                "2",
-                "--ratio",
-                "0",
-            ],
-            "--ratio 0",
-        ),
-        (
-            vec![
-                "--source",
-                "0",
-                "--sections",
-                "2",
-                "--ctus",
-                "2",
-                "--ratio",
-                "100000",
-            ],
-            "--ratio 100000",
-        ),
-        (
-            vec![
-                "--source",
-                "0",
-                "--sections",
-                "2",
-                "--ctus",
-                "2",
-                "--ratio",
-                "1",
-                "--shell-radius",
-                "0",
-            ],
-            "--shell-radius",
-        ),
-        (
-            vec![
-                "--source",
-                "0",
-                "--sections",
-                "2",
-                "--ctus",
-                "2",
-                "--ratio",
-                "1",
-                "--subshell-max",
-                "0",
-            ],
-            "--subshell-max",
-        ),
-        (
-            vec![
-                "--source",
-                "0",
-                "--sections",
-                "2",
-                "--ctus",
-                "2",
-                "--ratio",
-                "1",
-                "--subregions",
-                "0x5",
-            ],
-            "subregions",
-        ),
-        (
-            vec!["--source", "0", "--sections", "2", "--ctus", "2"],
-            "--ratio",
-        ),
-    ] {
-        let mut args: Vec<&str> = base.to_vec();
-        args.extend(&extra);
-        let (code, stdout, stderr) = shellsim(&args);
-        assert_eq!(code, Some(2), "{args:?}\n{stdout}{stderr}");
-        assert!(
-            stderr.contains(want),
-            "{args:?}: stderr lacks {want:?}\n{stderr}"
-        );
-        assert!(!stderr.contains("panicked"), "{stderr}");
+    let mut argv = vec!["partition", "--scene", scene.to_str().unwrap()];
+    argv.extend(args.split_whitespace());
+    let (code, stdout, stderr) = shellsim(&argv);
+    assert_eq!(code, Some(2), "{argv:?}\n{stdout}{stderr}");
+    assert!(
+        stderr.contains(want),
+        "{argv:?}: stderr lacks {want:?}\n{stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
+
+mod cli_bad_input {
+    use super::*;
+    const OK: &str = "--source 0 --sections 2 --ctus 2";
+    testcases! { cli_bad_input_exits_2;
+        source_out_of_range => "--source 26 --sections 2 --ctus 2 --ratio 1", "source patch 26 does not exist";
+        zero_sections => "--source 0 --sections 0 --ctus 2 --ratio 1", "--sections 0";
+        zero_ctus => "--source 0 --sections 2 --ctus 0 --ratio 1", "--ctus 0";
+        zero_ratio => &format!("{OK} --ratio 0"), "--ratio 0";
+        absurd_ratio => &format!("{OK} --ratio 100000"), "--ratio 100000";
+        zero_shell_radius => &format!("{OK} --ratio 1 --shell-radius 0"), "--shell-radius";
+        zero_subshell_max => &format!("{OK} --ratio 1 --subshell-max 0"), "--subshell-max";
+        empty_subregions => &format!("{OK} --ratio 1 --subregions 0x5"), "subregions";
+        missing_ratio => OK, "--ratio";
     }
-    let (code, _, stderr) = shellsim(&[
-        "partition",
-        "--scene",
-        "/nonexistent.json",
-        "--source",
-        "0",
-        "--sections",
-        "2",
-        "--ctus",
-        "2",
-        "--ratio",
-        "1",
-    ]);
-    assert_eq!(code, Some(2), "{stderr}");
+
+    #[test]
+    fn missing_scene_file() {
+        let (code, _, stderr) = shellsim(&[
+            "partition",
+            "--scene",
+            "/nonexistent.json",
+            "--source",
+            "0",
+            "--sections",
+            "2",
+            "--ctus",
+            "2",
+            "--ratio",
+            "1",
+        ]);
+        assert_eq!(code, Some(2), "{stderr}");
+        assert!(stderr.contains("nonexistent.json"), "{stderr}");
+    }
 }

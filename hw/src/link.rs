@@ -41,12 +41,18 @@ pub enum UnitId {
 /// A registered FIFO link carrying `T`.
 #[derive(Clone, Debug)]
 pub struct Link<T> {
+    /// The registered items, then (at the back) the `staged_push` items pushed this cycle:
+    /// a push goes straight into the one queue and becomes visible at the edge.
     q: VecDeque<T>,
     capacity: usize,
     ports: usize,
-    staged_push: VecDeque<T>,
+    /// Items at the back of `q` pushed this cycle (not yet registered).
+    staged_push: usize,
     staged_pop: bool,
     staged_take_back: usize,
+    /// Something was staged this cycle: `commit` has work (an untouched link's edge is one
+    /// test, so the machine's clock edge costs little for the many idle links).
+    touched: bool,
     /// The one unit that pushes (rule 7); `None` until the first push of an unwired link.
     producer: Option<UnitId>,
     /// The one unit that pops (rule 7).
@@ -82,9 +88,10 @@ impl<T: Clone> Link<T> {
             q: VecDeque::with_capacity(capacity + ports),
             capacity,
             ports,
-            staged_push: VecDeque::with_capacity(ports),
+            staged_push: 0,
             staged_pop: false,
             staged_take_back: 0,
+            touched: false,
             producer: None,
             consumer: None,
             transfers: 0,
@@ -112,7 +119,7 @@ impl<T: Clone> Link<T> {
     /// Registered ready: room at the last edge (rule 1).
     #[inline]
     pub fn can_push(&self) -> bool {
-        self.q.len() + self.staged_push.len() < self.capacity && self.staged_push.len() < self.ports
+        self.q.len() < self.capacity && self.staged_push < self.ports
     }
 
     /// Stages a push by `by` (rules 1 and 7). Panics if the rules were broken — a model bug.
@@ -123,13 +130,15 @@ impl<T: Clone> Link<T> {
             self.can_push(),
             "push without ready or more pushes than ports in a cycle"
         );
-        self.staged_push.push_back(x);
+        self.q.push_back(x);
+        self.staged_push += 1;
+        self.touched = true;
     }
 
     /// Registered valid and data: the front at the last edge (rule 3).
     #[inline]
     pub fn peek(&self) -> Option<&T> {
-        if self.staged_pop {
+        if self.staged_pop || self.q.len() == self.staged_push {
             None
         } else {
             self.q.front()
@@ -141,7 +150,9 @@ impl<T: Clone> Link<T> {
     pub fn pop(&mut self, by: UnitId) -> T {
         one_end(&mut self.consumer, by, "consumer");
         assert!(!self.staged_pop, "two pops in a cycle");
+        assert!(!self.is_empty(), "pop without valid");
         self.staged_pop = true;
+        self.touched = true;
         self.q.front().cloned().expect("pop without valid")
     }
 
@@ -149,20 +160,26 @@ impl<T: Clone> Link<T> {
     /// splitter is the link's producer (it takes back what it queued; rule 7).
     pub fn take_back(&mut self, by: UnitId, k: usize) -> Vec<T> {
         one_end(&mut self.producer, by, "producer");
-        assert!(
-            self.staged_take_back == 0 && k < self.q.len().max(1),
-            "rule 6"
-        );
+        let len = self.len();
+        assert!(self.staged_take_back == 0 && k < len.max(1), "rule 6");
         self.staged_take_back = k;
-        self.q.iter().skip(self.q.len() - k).cloned().collect()
+        self.touched = true;
+        self.q.range(len - k..len).cloned().collect()
     }
 
-    /// The clock edge (rule 4).
+    /// The clock edge (rule 4). An untouched link has nothing to do.
     #[inline]
     pub fn commit(&mut self) {
+        if self.touched {
+            self.commit_staged();
+        }
+    }
+
+    /// The edge of a touched link: take-back, pop, then the staged pushes become registered.
+    fn commit_staged(&mut self) {
         if self.staged_take_back > 0 {
-            let n = self.q.len() - self.staged_take_back;
-            self.q.truncate(n);
+            let len = self.len();
+            self.q.drain(len - self.staged_take_back..len);
             self.staged_take_back = 0;
         }
         if self.staged_pop {
@@ -170,33 +187,32 @@ impl<T: Clone> Link<T> {
             self.staged_pop = false;
             self.transfers += 1;
         }
-        while let Some(x) = self.staged_push.pop_front() {
-            self.q.push_back(x);
-        }
+        self.staged_push = 0;
+        self.touched = false;
     }
 
     /// Items held at the last edge.
     #[inline]
     pub fn len(&self) -> usize {
-        self.q.len()
+        self.q.len() - self.staged_push
     }
 
     /// True when empty at the last edge.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.q.is_empty()
+        self.len() == 0
     }
 
     /// Registered valid (an item is at the front).
     #[inline]
     pub fn valid(&self) -> bool {
-        !self.q.is_empty()
+        !self.is_empty()
     }
 
     /// Registered ready (room for one more).
     #[inline]
     pub fn ready(&self) -> bool {
-        self.q.len() < self.capacity
+        self.len() < self.capacity
     }
 
     /// The capacity.
@@ -206,7 +222,7 @@ impl<T: Clone> Link<T> {
 
     /// True when nothing is staged (between cycles).
     pub fn is_settled(&self) -> bool {
-        self.staged_push.is_empty() && !self.staged_pop && self.staged_take_back == 0
+        !self.touched
     }
 }
 

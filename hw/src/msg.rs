@@ -20,7 +20,7 @@ pub struct PatchArrival {
 /// A (ray, patch) job for the ICU. `slot` is the ray's index within its CTU's sector; `owner`
 /// the cluster whose CTU issued it (the result goes back there, even when another cluster's
 /// ICU computes it).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Job {
     pub ray: u32,
     pub slot: u32,

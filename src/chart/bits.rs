@@ -1,8 +1,8 @@
 //! The bits sweep's chart family: accuracy against fractional bits (log scale) above,
 //! hardware cost against bits below (`shellsim sweep bits`).
 
-use super::draw_err;
 use super::palette::{PURE_BLUE, PURE_CYAN, PURE_GREEN, PURE_MAGENTA, PURE_RED};
+use super::{draw_err, legend, Legend};
 use crate::error::Result;
 use plotters::prelude::*;
 
@@ -99,13 +99,7 @@ pub fn svg(rows: &[BitsPoint], recommended: Option<u32>, title: &str) -> Result<
                 .label(format!("fewest bits under the sampling error: {b}"))
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], PURE_GREEN));
         }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(draw_err)?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight, Legend::Boxed).map_err(draw_err)?;
         let max_cost = rows
             .iter()
             .map(|r| r.multiplier_bits.max(r.adder_bits))
@@ -140,12 +134,7 @@ pub fn svg(rows: &[BitsPoint], recommended: Option<u32>, title: &str) -> Result<
                 PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
             });
         }
-        cost.configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(draw_err)?;
+        legend(&mut cost, SeriesLabelPosition::UpperLeft, Legend::Boxed).map_err(draw_err)?;
         root.present().map_err(draw_err)?;
     }
     Ok(out)

@@ -5,7 +5,7 @@
 //! **Invariant:** an SVG depends only on the numbers drawn (no timestamps), so a figure is
 //! byte-identical when its runs are.
 
-use super::{draw_err, palette, si, SiStyle};
+use super::{draw_err, legend, palette, si, Legend, SiStyle};
 use crate::error::Result;
 use plotters::prelude::*;
 
@@ -148,14 +148,7 @@ pub fn efficiency_svg(title: &str, points: &[Point]) -> Result<String> {
                     }))
                     .map_err(draw_err)?;
             }
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .label_font(("sans-serif", 11))
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK.mix(0.3))
-                .draw()
-                .map_err(draw_err)?;
+            legend(&mut chart, SeriesLabelPosition::UpperRight, Legend::Light).map_err(draw_err)?;
         }
         root.present().map_err(draw_err)?;
     }
@@ -250,12 +243,7 @@ pub fn work_item_svg(title: &str, rows: &WorkItemRows) -> Result<String> {
             &format!("static partitioning ({:.3})", rows.off.pipeline_efficiency),
             false,
         )?;
-        eff.configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(draw_err)?;
+        legend(&mut eff, SeriesLabelPosition::LowerRight, Legend::Boxed).map_err(draw_err)?;
         let ymax = rows
             .on
             .iter()
@@ -308,12 +296,7 @@ pub fn work_item_svg(title: &str, rows: &WorkItemRows) -> Result<String> {
             ),
             false,
         )?;
-        cyc.configure_series_labels()
-            .background_style(WHITE.mix(0.9))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(draw_err)?;
+        legend(&mut cyc, SeriesLabelPosition::LowerRight, Legend::Boxed).map_err(draw_err)?;
         root.present().map_err(draw_err)?;
     }
     Ok(out)
@@ -396,13 +379,7 @@ pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
                 "static partitioning",
                 true,
             )?;
-            chart
-                .configure_series_labels()
-                .background_style(WHITE.mix(0.9))
-                .border_style(BLACK)
-                .position(SeriesLabelPosition::UpperLeft)
-                .draw()
-                .map_err(draw_err)?;
+            legend(&mut chart, SeriesLabelPosition::UpperLeft, Legend::Boxed).map_err(draw_err)?;
         }
         root.present().map_err(draw_err)?;
     }

@@ -1,5 +1,5 @@
 //! SVG charts (plotters, SVG backend only): the shared pieces — [`si`] for axis labels,
-//! the [`palette`], the error mapping [`draw_err`] — and one file per chart family: the
+//! the [`palette`], the error mapping [`draw_err`], the [`legend`] — and one file per chart family: the
 //! partition's workload per ICU ([`partition`]), the machine experiments
 //! ([`experiments`]), the bits sweep ([`bits`]).
 //!
@@ -14,6 +14,10 @@ pub mod experiments;
 pub mod partition;
 
 use crate::error::Error;
+use plotters::coord::CoordTranslate;
+use plotters::prelude::{
+    ChartContext, Color, DrawingAreaErrorKind, DrawingBackend, SeriesLabelPosition, BLACK, WHITE,
+};
 
 /// How [`si`] writes a value: decimals per suffix, and whether `.000` is trimmed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -60,6 +64,37 @@ pub fn si(v: f64, style: SiStyle) -> String {
     } else {
         s
     }
+}
+
+/// How a chart's series legend looks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Legend {
+    /// White box, black border, plotters' default font: the full-size charts.
+    Boxed,
+    /// Translucent box, faint border, 11 px labels: small panels.
+    Light,
+}
+
+/// Draws `chart`'s series legend at `pos` in the kit's `look`.
+pub fn legend<'a, DB, CT>(
+    chart: &mut ChartContext<'a, DB, CT>,
+    pos: SeriesLabelPosition,
+    look: Legend,
+) -> std::result::Result<(), DrawingAreaErrorKind<DB::ErrorType>>
+where
+    DB: DrawingBackend + 'a,
+    CT: CoordTranslate,
+{
+    let mut labels = chart.configure_series_labels();
+    labels.position(pos);
+    match look {
+        Legend::Boxed => labels.background_style(WHITE.mix(0.9)).border_style(BLACK),
+        Legend::Light => labels
+            .label_font(("sans-serif", 11))
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.3)),
+    };
+    labels.draw()
 }
 
 /// A drawing error as the host's error.

@@ -6,7 +6,7 @@
 //! **Invariant:** the SVG depends only on the numbers drawn (no timestamps), so a figure is
 //! byte-identical when its run is.
 
-use super::{draw_err, palette, si, SiStyle};
+use super::{draw_err, legend, palette, si, Legend, SiStyle};
 use crate::error::Result;
 use plotters::prelude::*;
 
@@ -107,13 +107,7 @@ fn draw_panel<DB: DrawingBackend>(
         )))?
         .label("mean actual")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 12, y)], MEAN.stroke_width(2)));
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .label_font(("sans-serif", 11))
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK.mix(0.3))
-        .draw()?;
+    legend(&mut chart, SeriesLabelPosition::UpperRight, Legend::Light)?;
     Ok(())
 }
 

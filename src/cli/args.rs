@@ -4,6 +4,7 @@
 
 use crate::config::{self, ConfigSource};
 use crate::error::{Error, Result};
+use crate::scene::Scene;
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::DatapathConfig;
 use std::path::PathBuf;
@@ -71,6 +72,24 @@ impl DatapathArgs {
             cfg.datapath = config::with_frac_bits(cfg.datapath, b)?;
         }
         Ok(cfg)
+    }
+}
+
+/// The grid's cell size, for the subcommands that build a grid without a machine.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct CellArg {
+    /// Grid cell size in scene units (default: the configuration's rule, the scene's
+    /// largest extent / 20 — 0.05 on the unit cube).
+    #[arg(long)]
+    pub cell: Option<f64>,
+}
+
+impl CellArg {
+    /// The cell size for `scene`: the one given, or the built-in configuration's.
+    pub fn for_scene(&self, scene: &Scene) -> f64 {
+        self.cell.unwrap_or_else(|| {
+            config::cell_size(config::built_in().machine.cell_size, scene.bounds.scale())
+        })
     }
 }
 

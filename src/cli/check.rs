@@ -23,7 +23,7 @@ pub fn run(a: &CheckArgs) -> Result<()> {
     check_outputs(&r.outputs())?;
     let scene = Scene::load(&r.scene)?;
     let cfg = a.datapath.resolve()?;
-    let report = check_scene(&scene, &r.scene, cfg, &r.spec(), r.cell)?;
+    let report = check_scene(&scene, &r.scene, cfg, &r.spec(), r.grid.for_scene(&scene))?;
     print_check(&report);
     if let Some(out) = &r.json {
         report.write_json(out, cfg)?;

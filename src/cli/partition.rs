@@ -1,6 +1,7 @@
 //! `shellsim partition`: one partition run with its report, chart and schedule, or the
 //! committed figures (`--figures DIR`).
 
+use super::args::CellArg;
 use crate::error::Result;
 use crate::output::{check_outputs, write_atomic, Output};
 use crate::paper::PAPER_RAYS;
@@ -40,10 +41,10 @@ pub struct PartitionArgs {
     /// low-resolution ray directions.
     #[arg(long, value_enum, default_value_t = Granularity::Subregion)]
     pub granularity: Granularity,
-    /// Radius step of the shells about the source patch's centroid (default: the built-in
-    /// configuration's machine.shell_radius).
-    #[arg(long, default_value_t = ShellParams::default().radius)]
-    pub shell_radius: f64,
+    /// Radius step of the shells about the source patch's centroid, in scene units
+    /// (default: the built-in configuration's rule, 0.289 × the scene's largest extent).
+    #[arg(long)]
+    pub shell_radius: Option<f64>,
     /// Most new active patches per subshell (a shell with more is cut into subshells;
     /// default: the built-in configuration's machine.subshell_max_patches).
     #[arg(long, default_value_t = ShellParams::default().subshell_max)]
@@ -54,9 +55,8 @@ pub struct PartitionArgs {
     /// Seed of the ray origins (the high-resolution pass uses seed + 1).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Grid cell size.
-    #[arg(long, default_value_t = crate::config::built_in().machine.cell_size)]
-    pub cell: f64,
+    #[command(flatten)]
+    pub grid: CellArg,
     /// Write the report as JSON here.
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -98,10 +98,15 @@ pub fn run(a: &PartitionArgs) -> Result<()> {
         rays_low: a.rays,
         subregions: a.subregions,
         granularity: a.granularity,
-        shell_radius: a.shell_radius,
+        shell_radius: a.shell_radius.unwrap_or_else(|| {
+            crate::config::shell_radius(
+                crate::config::built_in().machine.shell_radius,
+                scene.bounds.scale(),
+            )
+        }),
         subshell_max: a.subshell_max,
         seed: a.seed,
-        cell_size: a.cell,
+        cell_size: a.grid.for_scene(&scene),
     };
     cfg.validate(&scene, file)?;
     let tracer = Tracer::new(&scene, cfg.cell_size).map_err(|e| e.for_scene(file))?;

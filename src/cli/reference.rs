@@ -1,5 +1,6 @@
 //! `shellsim reference`: form factors from one source patch by the float reference tracer.
 
+use super::args::CellArg;
 use crate::error::Result;
 use crate::output::{check_outputs, write_json, Output};
 use crate::paper::PAPER_RAYS;
@@ -26,9 +27,8 @@ pub struct ReferenceArgs {
     /// Seed of the origins (and of Malley/random directions).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Grid cell size.
-    #[arg(long, default_value_t = crate::config::built_in().machine.cell_size)]
-    pub cell: f64,
+    #[command(flatten)]
+    pub grid: CellArg,
     /// Write the full result as JSON here (`-`: standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
@@ -58,7 +58,7 @@ impl ReferenceArgs {
 pub fn run(a: &ReferenceArgs) -> Result<()> {
     check_outputs(&a.outputs())?;
     let scene = Scene::load(&a.scene)?;
-    let report = cast::run_scene(&scene, &a.scene, &a.spec(), a.cell)?;
+    let report = cast::run_scene(&scene, &a.scene, &a.spec(), a.grid.for_scene(&scene))?;
     print_reference(&report, &scene);
     if let Some(out) = &a.json {
         write_json(out, &report)?;

@@ -29,15 +29,25 @@ pub struct RunArgs {
     pub balance: Option<OnOff>,
     /// Write the machine's waveform as a VCD here, and a GTKWave save file (signals grouped
     /// per unit and formatted) beside it with the same stem and extension .gtkw.
-    #[arg(long, value_name = "OUT")]
+    #[arg(long, value_name = "OUT", group = "waveform")]
     pub vcd: Option<PathBuf>,
-    /// Only cycles FROM..=TO in the VCD (either side may be left empty); the values holding
-    /// at FROM are dumped in full.
-    #[arg(long, value_name = "FROM:TO", requires = "vcd", value_parser = Window::parse)]
+    /// Write the machine's waveform here: FILE.fst as FST (GTKWave's compressed format),
+    /// any other name as VCD (`--wave FILE.vcd` is `--vcd FILE.vcd`); the .gtkw beside it
+    /// as for --vcd.
+    #[arg(long, value_name = "FILE", group = "waveform", conflicts_with = "vcd")]
+    pub wave: Option<PathBuf>,
+    /// Only cycles FROM..=TO in the waveform (either side may be left empty); the values
+    /// holding at FROM are dumped in full.
+    #[arg(long, value_name = "FROM:TO", requires = "waveform", value_parser = Window::parse, visible_alias = "wave-window")]
     pub vcd_window: Option<Window>,
     /// Only signals whose dotted scope matches PATTERN: a glob with * and ? on the whole
     /// scope (e.g. 'machine.cluster_0.*'), else a substring (e.g. 'icu').
-    #[arg(long, value_name = "PATTERN", requires = "vcd")]
+    #[arg(
+        long,
+        value_name = "PATTERN",
+        requires = "waveform",
+        visible_alias = "wave-scope"
+    )]
     pub vcd_scope: Option<String>,
 }
 
@@ -54,7 +64,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
         ratio: a.ratio,
         order: shellsim_hw::machine::TickOrder::Forward,
     };
-    let vcd = a.vcd.as_ref().map(|p| {
+    let vcd = a.vcd.as_ref().or(a.wave.as_ref()).map(|p| {
         (
             p.clone(),
             VcdOptions {

@@ -1,5 +1,6 @@
 //! `shellsim scene gen|import|info`.
 
+use super::args::CellArg;
 use crate::error::Result;
 use crate::output::{check_outputs, Output};
 use crate::reference::tracer::Tracer;
@@ -40,16 +41,16 @@ pub enum SceneCmd {
     Info {
         /// The scene file (.json or .obj).
         file: PathBuf,
-        /// Grid cell size for the grid statistics.
-        #[arg(long, default_value_t = crate::config::built_in().machine.cell_size)]
-        cell: f64,
+        /// The grid for the grid statistics.
+        #[command(flatten)]
+        grid: CellArg,
     },
 }
 
 /// Runs `shellsim scene ...`.
 pub fn run(c: SceneCmd) -> Result<()> {
     match c {
-        SceneCmd::Info { file, cell } => info(&file, cell),
+        SceneCmd::Info { file, grid } => info(&file, grid),
         SceneCmd::Gen { kind, seed, out } => {
             check_outputs(&[Output::file("--out", &out)])?;
             let scene = gen::generate(kind, seed);
@@ -102,9 +103,9 @@ fn parse_bounds(s: &str) -> std::result::Result<Aabb, String> {
     })
 }
 
-fn info(file: &Path, cell: f64) -> Result<()> {
+fn info(file: &Path, grid: CellArg) -> Result<()> {
     let scene = Scene::load(file)?;
-    let tracer = Tracer::new(&scene, cell).map_err(|e| e.for_scene(file))?;
+    let tracer = Tracer::new(&scene, grid.for_scene(&scene)).map_err(|e| e.for_scene(file))?;
     let g = &tracer.grid;
     let tris = scene
         .patches

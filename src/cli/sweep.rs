@@ -90,7 +90,7 @@ pub fn run(c: &SweepCmd) -> Result<()> {
         file,
         cfg.datapath,
         &spec,
-        cfg.machine.cell_size,
+        crate::config::cell_size(cfg.machine.cell_size, scene.bounds.scale()),
         a.from..=a.to,
     )?;
     crate::output::outln!(

@@ -118,8 +118,9 @@ pub fn check(
     tol: Tolerances,
 ) -> CheckReport {
     let f = *host.formats();
-    let lsb_c = f.coord.lsb();
-    let lsb_t = f.t.lsb();
+    // LSBs as scene lengths: the float reference works in scene units.
+    let lsb_c = host.coord_lsb();
+    let lsb_t = host.t_lsb();
     let outcomes: Vec<Outcome> = set
         .rays
         .par_iter()
@@ -288,13 +289,13 @@ fn classify(
         // The quantized ray strays about an LSB per unit of t from the float one; on the
         // patch's plane that offset grows by 1/|cos| of the incidence angle.
         let cos = g.normal.dot(dn).abs();
-        if boundary_distance(g, p) <= tol.edge_lsb * lsb_c * (1.0 + 2.0 * t) / cos {
+        if boundary_distance(g, p) <= tol.edge_lsb * lsb_c * (1.0 + 2.0 * t / host.scale) / cos {
             return Some(Class::NearEdge);
         }
     }
     if let [(_, ta), (_, tb)] = involved[..] {
         let t = ta.max(tb);
-        if (ta - tb).abs() <= tol.tie_lsb * lsb_t * (1.0 + 2.0 * t) {
+        if (ta - tb).abs() <= tol.tie_lsb * lsb_t * (1.0 + 2.0 * t / host.scale) {
             return Some(Class::Tie);
         }
     }

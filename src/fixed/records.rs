@@ -1,6 +1,12 @@
 //! Host side of the fixed-point model: converts a scene into patch records and a cell table,
 //! and rays into ray records, for a datapath configuration. A value that does not fit its
 //! format is an error naming it, never a silent wrap.
+//!
+//! The hardware's coordinates are the scene's relative to the grid origin (the bounds' low
+//! corner) over the scene's scale (its largest extent, `Scene::scale`): every scene reaches
+//! the datapath in [0, 1]³, so the formats of the unit cube fit any scene in any units, the
+//! LSB is the scale × 2^-F, and a scene scaled and moved gives the hardware the same numbers
+//! (up to the float rounding of the conversion). t is in the same units.
 
 use crate::error::{Error, Result};
 use crate::reference::grid::polygon_touches_box;
@@ -19,10 +25,13 @@ pub struct HostFixed {
     pub config: DatapathConfig,
     /// The grid origin: coordinates are stored relative to it.
     pub origin: DVec3,
+    /// The scene's scale: hardware coordinates and t are scene lengths over it.
+    pub scale: f64,
 }
 
 impl HostFixed {
-    /// Converts `scene` (named `file` in errors) with cells of `cell` for `config`.
+    /// Converts `scene` (named `file` in errors) with cells of `cell` (scene units) for
+    /// `config`.
     pub fn new(scene: &Scene, file: &Path, config: DatapathConfig, cell: f64) -> Result<HostFixed> {
         let f = config
             .formats()
@@ -35,6 +44,14 @@ impl HostFixed {
             ));
         }
         let origin = scene.bounds.lo;
+        let scale = scene.bounds.scale();
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(Error::input(
+                file,
+                "bounds",
+                format!("the largest extent {scale} is not a positive length"),
+            ));
+        }
         let q = |x: f64, what: &dyn Fn() -> String| -> Result<i64> {
             f.coord.quantize(x).ok_or_else(|| {
                 Error::input(
@@ -53,7 +70,7 @@ impl HostFixed {
             // Triangles repeat their last vertex: every record has four.
             let mut v = [[0i64; 3]; 4];
             for (k, vk) in v.iter_mut().enumerate() {
-                let src = p.vertices[k.min(p.vertices.len() - 1)] - origin;
+                let src = (p.vertices[k.min(p.vertices.len() - 1)] - origin) / scale;
                 for a in 0..3 {
                     vk[a] = q(src[a], &|| format!("patch {id} vertex {k}"))?;
                 }
@@ -64,7 +81,7 @@ impl HostFixed {
                 v,
             });
         }
-        let cells = cell_table(scene, file, &patches, &f, &config, cell)?;
+        let cells = cell_table(scene, file, &patches, &f, &config, cell / scale)?;
         Ok(HostFixed {
             scene: FixedScene {
                 formats: f,
@@ -73,6 +90,7 @@ impl HostFixed {
             },
             config,
             origin,
+            scale,
         })
     }
 
@@ -81,11 +99,12 @@ impl HostFixed {
         &self.scene.formats
     }
 
-    /// The ray record of `ray` (id `id`): origin relative to the grid origin and direction,
-    /// each rounded to nearest. `None` if a value does not fit or the direction rounds to 0.
+    /// The ray record of `ray` (id `id`): origin relative to the grid origin over the scale,
+    /// and unit direction, each rounded to nearest. `None` if a value does not fit or the
+    /// direction rounds to 0.
     pub fn ray(&self, id: u32, ray: &Ray) -> Option<RayRecord> {
         let f = self.formats();
-        let o = ray.o - self.origin;
+        let o = (ray.o - self.origin) / self.scale;
         let len = ray.d.length();
         let d = ray.d / len;
         let oq = [
@@ -110,19 +129,29 @@ impl HostFixed {
         let c = |x: i64| f.coord.to_f64(x as i128);
         let d = |x: i64| f.dir.to_f64(x as i128);
         Ray {
-            o: self.origin + DVec3::new(c(r.o[0]), c(r.o[1]), c(r.o[2])),
+            o: self.origin + DVec3::new(c(r.o[0]), c(r.o[1]), c(r.o[2])) * self.scale,
             d: DVec3::new(d(r.d[0]), d(r.d[1]), d(r.d[2])),
         }
     }
 
-    /// t of the t format as f64.
+    /// t of the t format as a scene length (f64).
     pub fn t_f64(&self, t: i64) -> f64 {
-        self.formats().t.to_f64(t as i128)
+        self.formats().t.to_f64(t as i128) * self.scale
+    }
+
+    /// The coordinate LSB as a scene length.
+    pub fn coord_lsb(&self) -> f64 {
+        self.formats().coord.lsb() * self.scale
+    }
+
+    /// The t LSB as a scene length.
+    pub fn t_lsb(&self) -> f64 {
+        self.formats().t.lsb() * self.scale
     }
 }
 
 /// The cell table on the fixed-point grid: cubes of `round(cell · 2^F)` LSBs from the grid
-/// origin. A patch is listed in every cell its quantized polygon comes within
+/// origin (`cell` in hardware units: scene units over the scale). A patch is listed in every cell its quantized polygon comes within
 /// `cell_margin_lsb` LSBs of (the separating-axis test on exact values of the raw integers).
 fn cell_table(
     scene: &Scene,
@@ -144,7 +173,7 @@ fn cell_table(
             ),
         )
     })?;
-    let ext = scene.bounds.extent();
+    let ext = scene.bounds.extent() / scene.bounds.scale();
     let mut dims = [0u32; 3];
     for a in 0..3 {
         let e = f.coord.quantize(ext[a]).ok_or_else(|| {

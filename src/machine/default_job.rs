@@ -109,17 +109,18 @@ pub fn default_job() -> Result<DefaultJob> {
         directions: Directions::Rings,
         seed: 1,
     };
-    let reference = cast::run_scene(&scene, path, &rays, cfg.machine.cell_size)?;
+    let cell = crate::config::cell_size(cfg.machine.cell_size, scene.bounds.scale());
+    let reference = cast::run_scene(&scene, path, &rays, cell)?;
     // 3. Grid traversal against brute force, and the fixed-point model against the float
     //    reference, on the same rays.
-    let tracer = Tracer::new(&scene, cfg.machine.cell_size)?;
+    let tracer = Tracer::new(&scene, cell)?;
     let set = rays.rays(&scene);
     let grid_mismatches = set
         .rays
         .iter()
         .filter(|r| tracer.trace(r, Some(source)) != tracer.trace_brute(r, Some(source)))
         .count();
-    let host = HostFixed::new(&scene, path, cfg.datapath, cfg.machine.cell_size)?;
+    let host = HostFixed::new(&scene, path, cfg.datapath, cell)?;
     let fixed = check(&tracer, &host, &set, source, Default::default());
     // 4. The tracer against Lambert's formula, floor centre → ceiling of the unit cube.
     Ok(DefaultJob {
@@ -137,8 +138,8 @@ pub fn default_job() -> Result<DefaultJob> {
 fn analytic_check() -> AnalyticCheck {
     use glam::DVec3;
     let cube = crate::scene::gen::unit_cube();
-    let tracer = Tracer::new(&cube, crate::config::built_in().machine.cell_size)
-        .expect("the unit cube builds");
+    let cell = crate::config::cell_size(crate::config::built_in().machine.cell_size, 1.0);
+    let tracer = Tracer::new(&cube, cell).expect("the unit cube builds");
     let centre = DVec3::new(0.5, 0.5, 0.0);
     let n = 100_000;
     let set = hemisphere_rays(

@@ -28,7 +28,7 @@
 //!   `[w-1:0]` range here, exactly as `vcd_out` declares it.
 
 use crate::error::Result;
-use crate::machine::vcd::{Signal, SignalKind, VcdSummary};
+use crate::machine::vcd::{Signal, SignalKind, VcdSummary, WaveFormat, FST_TEXT_CHARS};
 use crate::output::write_atomic;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -43,6 +43,12 @@ pub const TR_BIN: u64 = 1 << 3;
 pub const TR_RJUSTIFY: u64 = 1 << 5;
 /// `TR_BLANK`: a blank or comment line (groups are blanks with a group flag).
 pub const TR_BLANK: u64 = 1 << 9;
+/// `TR_ASCII`: a bit vector shown as ASCII text (an FST's FSM state, see `WaveFormat::Fst`).
+pub const TR_ASCII: u64 = 1 << 11;
+/// `TR_COLLAPSED`: set on the end of a closed group.
+pub const TR_COLLAPSED: u64 = 1 << 12;
+/// `TR_CLOSED`: a group shown closed (its traces hidden until opened).
+pub const TR_CLOSED: u64 = 1 << 22;
 /// `TR_SIGNED`: signed decimal.
 pub const TR_SIGNED: u64 = 1 << 10;
 /// `TR_GRP_BEGIN`: opens a group.
@@ -59,16 +65,30 @@ pub fn path_for(vcd: &Path) -> PathBuf {
 
 /// The name GTKWave gives `s` after loading the VCD (see the module doc).
 pub fn trace_name(s: &Signal) -> String {
-    if s.is_vector() {
-        format!("{}[{}:0]", s.full_name(), s.width - 1)
-    } else {
-        s.full_name()
+    trace_name_in(s, WaveFormat::Vcd)
+}
+
+/// The name GTKWave gives `s` in a waveform of `format`: as in the VCD, except that an FST
+/// holds a text as an ASCII bit vector (`name[127:0]`).
+pub fn trace_name_in(s: &Signal, format: WaveFormat) -> String {
+    match (s.kind, format) {
+        (SignalKind::Text, WaveFormat::Fst) => {
+            format!("{}[{}:0]", s.full_name(), 8 * FST_TEXT_CHARS - 1)
+        }
+        _ if s.is_vector() => format!("{}[{}:0]", s.full_name(), s.width - 1),
+        _ => s.full_name(),
     }
 }
 
 /// The trace flags and fixed-point shift `s` is shown with.
 pub fn format_of(s: &Signal) -> (u64, Option<u32>) {
+    format_in(s, WaveFormat::Vcd)
+}
+
+/// The trace flags and fixed-point shift `s` is shown with in a waveform of `format`.
+pub fn format_in(s: &Signal, format: WaveFormat) -> (u64, Option<u32>) {
     match s.kind {
+        SignalKind::Text if format == WaveFormat::Fst => (TR_ASCII | TR_RJUSTIFY, None),
         SignalKind::Text => (TR_RJUSTIFY, None),
         SignalKind::Bits if s.width == 1 => (TR_BIN | TR_RJUSTIFY, None),
         SignalKind::Bits => (TR_DEC | TR_RJUSTIFY, None),
@@ -104,6 +124,9 @@ impl<'a> Node<'a> {
 struct Out {
     text: String,
     flags: Option<u64>,
+    format: WaveFormat,
+    /// Unit groups start closed (the overview is open above them).
+    closed: bool,
 }
 
 impl Out {
@@ -120,20 +143,47 @@ impl Out {
     }
 
     fn signal(&mut self, s: &Signal) {
-        let (f, shift) = format_of(s);
+        let (f, shift) = format_in(s, self.format);
         self.flags(f);
         if let Some(n) = shift {
             self.line(&format!("[fpshift_count] {n}"));
         }
-        self.line(&trace_name(s));
+        self.line(&trace_name_in(s, self.format));
     }
 
-    /// A group per scope: its signals, then its sub-scopes' groups.
+    /// A trace under a short label naming its unit (`c0 ctu1 state`): the overview shows
+    /// many signals whose own names (`valid`, `state`) repeat.
+    fn alias(&mut self, s: &Signal) {
+        let (f, shift) = format_in(s, self.format);
+        self.flags(f);
+        if let Some(n) = shift {
+            self.line(&format!("[fpshift_count] {n}"));
+        }
+        let unit = s
+            .scope
+            .strip_prefix("machine.")
+            .unwrap_or(&s.scope)
+            .replace("cluster_", "c")
+            .replace("ray_buffer", "rb")
+            .replace('_', "")
+            .replace('.', " ");
+        self.line(&format!(
+            "+{{{unit} {}}} {}",
+            s.name,
+            trace_name_in(s, self.format)
+        ));
+    }
+
     fn group(&mut self, n: &Node) {
-        self.flags(TR_GRP_BEGIN | TR_BLANK);
+        let (open, close) = if self.closed {
+            (TR_CLOSED, TR_CLOSED | TR_COLLAPSED)
+        } else {
+            (0, 0)
+        };
+        self.flags(TR_GRP_BEGIN | TR_BLANK | open);
         self.line(&format!("-{}", n.name));
         self.body(n);
-        self.flags(TR_GRP_END | TR_BLANK);
+        self.flags(TR_GRP_END | TR_BLANK | close);
         self.line(&format!("-{}", n.name));
     }
 
@@ -148,8 +198,126 @@ impl Out {
 }
 
 /// The save file's text for the VCD at `vcd_path` (as the save file should name it) holding
-/// `signals`, the save file itself being written to `gtkw_path`.
+/// `signals`, the save file itself being written to `gtkw_path`: every unit's group, open.
 pub fn render(vcd_path: &Path, gtkw_path: &Path, signals: &[Signal], timestart: u64) -> String {
+    let mut out = Out {
+        text: String::new(),
+        flags: None,
+        format: WaveFormat::Vcd,
+        closed: false,
+    };
+    preamble(&mut out, vcd_path, gtkw_path, timestart, None);
+    units(&mut out, signals);
+    out.text
+}
+
+/// The first screen's zoom: GTKWave shows 2^-ZOOM time units (cycles) per pixel, so at −6
+/// the ~1100-pixel wave pane of a 1400-pixel window shows ~500 cycles.
+pub const FIRST_SCREEN_ZOOM: f64 = -6.0;
+
+/// The overview's signals of one cluster, in order: ICU input and output stage valid, ray
+/// buffer occupancy, each CTU's state (`name` within the scope after `machine.cluster_C.`).
+fn overview_of_cluster(rest: &str, name: &str) -> Option<u32> {
+    match (rest, name) {
+        ("icu.stage_0", "valid") => Some(0),
+        (r, "valid") if r.starts_with("icu.stage_") => Some(1),
+        ("ray_buffer", "occupancy") => Some(2),
+        (r, "state") if r.starts_with("ctu_") && !r.contains('.') => Some(3),
+        _ => None,
+    }
+}
+
+/// The overview: memory port busy and grants, then per cluster its ICU's first and last
+/// stage valid, its ray buffer's occupancy and each CTU's state.
+fn overview(signals: &[Signal]) -> Vec<&Signal> {
+    let mut v: Vec<&Signal> = signals
+        .iter()
+        .filter(|s| s.scope == "machine.memory" && (s.name == "port_busy" || s.name == "grants"))
+        .collect();
+    let depth_last = signals
+        .iter()
+        .filter_map(|s| {
+            s.scope
+                .rsplit_once(".icu.stage_")
+                .and_then(|(_, n)| n.parse::<u32>().ok())
+        })
+        .max();
+    let mut per: Vec<(u32, u32, usize, &Signal)> = Vec::new();
+    for (i, s) in signals.iter().enumerate() {
+        let Some(rest) = s.scope.strip_prefix("machine.cluster_") else {
+            continue;
+        };
+        let Some((c, rest)) = rest.split_once('.') else {
+            continue;
+        };
+        let Ok(c) = c.parse::<u32>() else { continue };
+        let Some(rank) = overview_of_cluster(rest, &s.name) else {
+            continue;
+        };
+        if rank == 1 && Some(rest) != depth_last.map(|d| format!("icu.stage_{d}")).as_deref() {
+            continue;
+        }
+        per.push((c, rank, i, s));
+    }
+    per.sort_by_key(|&(c, r, i, _)| (c, r, i));
+    v.extend(per.into_iter().map(|(.., s)| s));
+    v
+}
+
+/// The save file for a waveform of `format`: the first screen shows ~450 cycles from
+/// `timestart` with an open overview group on top; every unit's group follows, closed.
+pub fn render_wave(
+    wave_path: &Path,
+    gtkw_path: &Path,
+    signals: &[Signal],
+    timestart: u64,
+    format: WaveFormat,
+) -> String {
+    let mut out = Out {
+        text: String::new(),
+        flags: None,
+        format,
+        closed: false,
+    };
+    preamble(
+        &mut out,
+        wave_path,
+        gtkw_path,
+        timestart,
+        Some(FIRST_SCREEN_ZOOM),
+    );
+    let ov = overview(signals);
+    if !ov.is_empty() {
+        out.flags(TR_GRP_BEGIN | TR_BLANK);
+        out.line("-overview");
+        for s in ov {
+            out.alias(s);
+        }
+        out.flags(TR_GRP_END | TR_BLANK);
+        out.line("-overview");
+    }
+    out.closed = true;
+    units(&mut out, signals);
+    out.text
+}
+
+fn preamble(out: &mut Out, wave: &Path, gtkw: &Path, timestart: u64, zoom: Option<f64>) {
+    out.line("[*] GTKWave save file written by shellsim (`shellsim run --vcd` / `--wave`)");
+    out.line("[*] one group per unit; one time unit is one clock cycle");
+    out.line(&format!("[dumpfile] \"{}\"", wave.display()));
+    out.line(&format!("[savefile] \"{}\"", gtkw.display()));
+    out.line(&format!("[timestart] {timestart}"));
+    if let Some(z) = zoom {
+        // Window and pane sizes, then the zoom and the primary marker (none).
+        out.line("[size] 1400 860");
+        out.line("[sst_width] 160");
+        out.line("[signals_width] 230");
+        out.line("[sst_expanded] 1");
+        out.line(&format!("*{z:.6} -1"));
+    }
+}
+
+fn units(out: &mut Out, signals: &[Signal]) {
     let mut root = Node::default();
     for s in signals {
         let mut n = &mut root;
@@ -158,27 +326,23 @@ pub fn render(vcd_path: &Path, gtkw_path: &Path, signals: &[Signal], timestart: 
         }
         n.signals.push(s);
     }
-    let mut out = Out {
-        text: String::new(),
-        flags: None,
-    };
-    out.line("[*] GTKWave save file written by shellsim (`shellsim run --vcd`)");
-    out.line("[*] one group per unit; one time unit is one clock cycle");
-    out.line(&format!("[dumpfile] \"{}\"", vcd_path.display()));
-    out.line(&format!("[savefile] \"{}\"", gtkw_path.display()));
-    out.line(&format!("[timestart] {timestart}"));
     // A single top scope (`machine`) is the whole file: its units are the top-level groups.
     if root.children.len() == 1 {
         out.body(&root.children[0]);
     } else {
         out.body(&root);
     }
-    out.text
 }
 
-/// Writes the save file for a finished VCD to `gtkw_path` (atomically).
-pub fn write(gtkw_path: &Path, vcd: &VcdSummary) -> Result<()> {
-    let text = render(&vcd.path, gtkw_path, &vcd.signals, vcd.window.from);
+/// Writes the save file for a finished waveform to `gtkw_path` (atomically).
+pub fn write(gtkw_path: &Path, wave: &VcdSummary) -> Result<()> {
+    let text = render_wave(
+        &wave.path,
+        gtkw_path,
+        &wave.signals,
+        wave.window.from,
+        WaveFormat::of(&wave.path),
+    );
     write_atomic(gtkw_path, text.as_bytes())
 }
 

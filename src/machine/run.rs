@@ -3,6 +3,7 @@
 //! statistics ([`simulate`]; JSON, units in the names), with the waveform and the report
 //! written beside it ([`execute`]).
 
+use crate::config;
 use crate::error::{Error, Result};
 use crate::fixed::records::HostFixed;
 use crate::machine::vcd::{VcdOptions, VcdWriter};
@@ -95,21 +96,23 @@ pub fn prepare(
     cfg: &MachineConfig,
     spec: &RunSpec,
 ) -> Result<Prepared> {
+    let cfg = &config::resolve(cfg, scene.bounds.scale())?;
     let m = &cfg.machine;
-    let tracer = Tracer::new(scene, cfg.machine.cell_size).map_err(|e| e.for_scene(file))?;
+    let cell = m.cell_size.value();
+    let tracer = Tracer::new(scene, cell).map_err(|e| e.for_scene(file))?;
     let mut pcfg = PartitionConfig::paper(
         spec.source,
         m.clusters as usize,
         m.ctus_per_cluster as usize,
         spec.ratio,
     );
-    pcfg.shell_radius = m.shell_radius;
+    pcfg.shell_radius = m.shell_radius.value();
     pcfg.subshell_max = m.subshell_max_patches as usize;
-    pcfg.cell_size = cfg.machine.cell_size;
+    pcfg.cell_size = cell;
     pcfg.validate(scene, file)
         .map_err(|e| config_param(e, file))?;
     let part = partition::partition(scene, &tracer, &pcfg);
-    let host = HostFixed::new(scene, file, cfg.datapath, cfg.machine.cell_size)?;
+    let host = HostFixed::new(scene, file, cfg.datapath, cell)?;
     let records: Vec<RayRecord> = part
         .high_rays
         .rays
@@ -185,13 +188,14 @@ pub fn simulate(
         records,
         sectors,
     } = *input;
+    let start = std::time::Instant::now();
+    let hw = config::in_hardware_units(cfg, host.scale)?;
     crate::limits::check_machine_memory(Machine::memory_estimate(
-        cfg,
+        &hw,
         host.scene.patches.len(),
         records.len(),
     ))?;
-    let start = std::time::Instant::now();
-    let mut machine = Machine::new(*cfg, &host.scene, records, sectors, spec.source);
+    let mut machine = Machine::new(hw, &host.scene, records, sectors, spec.source);
     machine
         .run(spec.order, probe)
         .map_err(|d| Error::Check(d.to_string()))?;
@@ -339,7 +343,7 @@ pub fn execute(
             return Err(Error::param(
                 "vcd",
                 format!(
-                    "{}: the GTKWave save file would overwrite it; name it *.vcd",
+                    "{}: the GTKWave save file would overwrite it; name it *.vcd or *.fst",
                     p.display()
                 ),
             ));
@@ -349,6 +353,7 @@ pub fn execute(
         Some((p, opts)) => Some(VcdWriter::create(&p, opts)?),
         None => None,
     };
+    let started = std::time::Instant::now();
     let probe = writer.as_mut().map(|w| w as &mut dyn Probe);
     let out = run(scene, file, cfg, spec, probe)?;
     let waveform = match writer {
@@ -373,12 +378,16 @@ pub fn execute(
         struct Out<'a> {
             config: MachineConfig,
             stats: &'a RunStats,
+            /// Host figures: not simulated statistics (see [`Host`]).
+            host: Host,
         }
+        let host = Host::measure(started.elapsed().as_secs_f64(), &out.stats);
         write_json(
             out_path,
             &Out {
-                config: *cfg,
+                config: config::resolve(cfg, scene.bounds.scale())?,
                 stats: &out.stats,
+                host,
             },
         )?;
     }
@@ -386,4 +395,48 @@ pub fn execute(
         stats: out.stats,
         waveform,
     })
+}
+
+/// How the host ran the simulation, kept apart from the simulated statistics (as gem5 keeps
+/// `hostSeconds` apart): it differs from run to run, so goldens and determinism checks leave
+/// it out ([`strip_host`]).
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Host {
+    /// Wall-clock seconds of the whole run: partition, records, machine, check.
+    pub wall_seconds: f64,
+    /// Wall-clock seconds of the machine's simulation alone.
+    pub simulation_seconds: f64,
+    /// Simulated cycles per wall-clock second of the simulation.
+    pub simulated_cycles_per_second: f64,
+    /// Peak resident set size of the process in KiB (`VmHWM` of /proc/self/status; `null`
+    /// where there is none).
+    pub peak_rss_kib: Option<u64>,
+}
+
+impl Host {
+    /// The figures of a run that took `wall_seconds` and produced `stats`.
+    pub fn measure(wall_seconds: f64, stats: &RunStats) -> Self {
+        Host {
+            wall_seconds,
+            simulation_seconds: stats.sim_wall_s,
+            simulated_cycles_per_second: stats.sim_rate_hz,
+            peak_rss_kib: peak_rss_kib(),
+        }
+    }
+}
+
+/// `VmHWM` (peak resident set) of this process in KiB, from /proc/self/status.
+pub fn peak_rss_kib() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = s.lines().find(|l| l.starts_with("VmHWM:"))?;
+    line.split_whitespace().nth(1)?.parse().ok()
+}
+
+/// A run JSON without its `host` section: what goldens and determinism checks compare.
+pub fn strip_host(json: &str) -> String {
+    let mut v: serde_json::Value = serde_json::from_str(json).expect("a run JSON");
+    if let Some(o) = v.as_object_mut() {
+        o.remove("host");
+    }
+    serde_json::to_string_pretty(&v).expect("serializable")
 }

@@ -30,11 +30,50 @@
 
 use crate::error::{Error, Result};
 use crate::output::TempFile;
+use fst_writer::{
+    FstBodyWriter, FstFileType, FstHeaderWriter, FstInfo, FstScopeType, FstSignalId, FstSignalType,
+    FstVarDirection, FstVarType,
+};
 use shellsim_hw::trace::Probe;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use vcd::{IdCode, ReferenceIndex, SimulationCommand, TimescaleUnit, Value, VarType};
+
+/// The waveform's file format, from the path's extension: `.fst` is FST, anything else VCD.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WaveFormat {
+    Vcd,
+    /// FST (GTKWave's compressed format) through the `fst-writer` crate. The crate writes
+    /// bit vectors and reals only, so a string (an FSM state) is a bit vector of
+    /// [`FST_TEXT_CHARS`] ASCII characters, right-aligned and NUL-padded, which the .gtkw
+    /// shows in GTKWave's ASCII format: the same text as the VCD's string variable.
+    Fst,
+}
+
+impl WaveFormat {
+    /// The format a waveform written to `path` takes.
+    pub fn of(path: &Path) -> Self {
+        match path.extension().and_then(|e| e.to_str()) {
+            Some(e) if e.eq_ignore_ascii_case("fst") => WaveFormat::Fst,
+            _ => WaveFormat::Vcd,
+        }
+    }
+}
+
+/// Characters of an FST text signal (the longest FSM state, SHELL_START, has 11); a longer
+/// text keeps its last 16 characters.
+pub const FST_TEXT_CHARS: u32 = 16;
+
+/// The FST writer, in its two phases: header (scopes and variables), then value changes.
+enum Fst {
+    Header(FstHeaderWriter<BufWriter<File>>),
+    Body(FstBodyWriter<BufWriter<File>>),
+}
+
+/// Flush the FST's value changes into a compressed section past this many buffered bytes,
+/// so memory stays bounded on long runs.
+const FST_FLUSH_BYTES: usize = 8 << 20;
 
 /// A cycle window `[from, to]`, both ends inclusive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -240,6 +279,8 @@ struct Slot {
     id: Option<IdCode>,
     /// The id as text, for the hand-formatted vector lines.
     id_text: String,
+    /// Its FST id when declared in an FST.
+    fst_id: Option<FstSignalId>,
     value: Val,
     /// Changed in the current sample.
     dirty: bool,
@@ -253,6 +294,10 @@ pub struct VcdWriter {
     /// half-written VCD is left.
     tmp: Option<TempFile>,
     out: Option<vcd::Writer<BufWriter<File>>>,
+    /// The FST writer instead of `out` when the path ends in `.fst`.
+    fst: Option<Fst>,
+    /// A value as FST writes it: one ASCII '0'/'1' per bit, MSB first.
+    fst_buf: Vec<u8>,
     opts: VcdOptions,
     slots: Vec<Slot>,
     /// Signal order of the header (indices into `slots`).
@@ -280,10 +325,33 @@ impl VcdWriter {
     /// A writer streaming to a temporary file beside `path` (created with its directory).
     pub fn create(path: &Path, opts: VcdOptions) -> Result<Self> {
         let (tmp, f) = TempFile::create(path)?;
+        let buf = BufWriter::with_capacity(1 << 16, f);
+        let (out, fst) = match WaveFormat::of(path) {
+            WaveFormat::Vcd => (Some(vcd::Writer::new(buf)), None),
+            WaveFormat::Fst => {
+                let info = FstInfo {
+                    start_time: if opts.window == Window::ALL {
+                        0
+                    } else {
+                        opts.window.from
+                    },
+                    timescale_exponent: -9,
+                    version: concat!("shellsim ", env!("CARGO_PKG_VERSION")).to_string(),
+                    // No date, so the same run gives a byte-identical file.
+                    date: String::new(),
+                    file_type: FstFileType::Verilog,
+                };
+                let h = FstHeaderWriter::new(buf, &info)
+                    .map_err(|e| Error::io(tmp.tmp_path(), io::Error::other(e.to_string())))?;
+                (None, Some(Fst::Header(h)))
+            }
+        };
         Ok(VcdWriter {
             path: path.to_path_buf(),
             tmp: Some(tmp),
-            out: Some(vcd::Writer::new(BufWriter::with_capacity(1 << 16, f))),
+            out,
+            fst,
+            fst_buf: Vec::new(),
             opts,
             slots: Vec::new(),
             declared: Vec::new(),
@@ -314,15 +382,22 @@ impl VcdWriter {
             // Dropping `self` removes the temporary file.
             return Err(Error::Check(format!("{}: {e}", self.path.display())));
         }
-        let mut w = self.out.take().expect("finish runs once");
-        let done = (|| -> io::Result<u64> {
-            w.flush()?;
-            let f = w.writer().get_ref();
-            crate::output::sync_file(f)?;
-            let bytes = f.metadata()?.len();
-            Ok(bytes)
-        })();
-        drop(w);
+        let done = match (self.out.take(), self.fst.take()) {
+            (Some(mut w), _) => (|| -> io::Result<u64> {
+                w.flush()?;
+                let f = w.writer().get_ref();
+                crate::output::sync_file(f)?;
+                f.metadata().map(|m| m.len())
+            })(),
+            (None, Some(Fst::Body(b))) => (|| -> io::Result<u64> {
+                let mut w = b.finish().map_err(fst_err)?;
+                w.flush()?;
+                let f = w.get_ref();
+                crate::output::sync_file(f)?;
+                f.metadata().map(|m| m.len())
+            })(),
+            _ => unreachable!("finish runs once, after the header"),
+        };
         let tmp = self.tmp.take().expect("finish runs once");
         let bytes = done.map_err(|e| Error::io(tmp.tmp_path(), e))?;
         tmp.persist()?;
@@ -367,7 +442,7 @@ impl VcdWriter {
                     self.pos += 1;
                     if !s.value.equals(v) {
                         s.value.set(v);
-                        if !s.dirty && s.id.is_some() {
+                        if !s.dirty && s.declared() {
                             s.dirty = true;
                             self.dirty.push(i);
                         }
@@ -405,6 +480,7 @@ impl VcdWriter {
                 kind,
                 id: None,
                 id_text: String::new(),
+                fst_id: None,
                 value: match v {
                     ValRef::Bits(b) => Val::Bits(b),
                     ValRef::Text(t) => Val::Text(t.to_string()),
@@ -437,7 +513,7 @@ impl VcdWriter {
         }
         if !s.value.equals(v) {
             s.value.set(v);
-            if !s.dirty && s.id.is_some() {
+            if !s.dirty && s.declared() {
                 s.dirty = true;
                 self.dirty.push(i);
             }
@@ -462,6 +538,19 @@ impl VcdWriter {
                 node = node.child(part);
             }
             node.vars.push(i);
+        }
+        if let Some(Fst::Header(_)) = &self.fst {
+            let Some(Fst::Header(mut h)) = self.fst.take() else {
+                unreachable!()
+            };
+            let mut order = Vec::new();
+            declare_fst(&mut h, &root, &mut self.slots, &mut order).map_err(fst_err)?;
+            self.fst = Some(Fst::Body(h.finish().map_err(fst_err)?));
+            self.declared = order;
+            for s in &mut self.slots {
+                s.dirty = false;
+            }
+            return Ok(());
         }
         let w = self.out.as_mut().expect("open until finish");
         w.version(concat!("shellsim ", env!("CARGO_PKG_VERSION")))?;
@@ -511,7 +600,7 @@ impl VcdWriter {
                 if !self.window_open {
                     // No sample before `from` (or this one is at `from`): open here.
                     self.dump_all(t)?;
-                } else if self.dirty.iter().any(|&i| self.slots[i].id.is_some()) {
+                } else if self.dirty.iter().any(|&i| self.slots[i].declared()) {
                     self.write_changes(t)?;
                 }
             }
@@ -530,6 +619,14 @@ impl VcdWriter {
     fn dump_all(&mut self, t: u64) -> io::Result<()> {
         self.window_open = true;
         self.timestamps += 1;
+        if let Some(Fst::Body(b)) = &mut self.fst {
+            // FST has no $dumpvars: the first time's values are the initial state.
+            b.time_change(t).map_err(fst_err)?;
+            for &i in &self.declared {
+                fst_value(b, &self.slots[i], &mut self.fst_buf)?;
+            }
+            return Ok(());
+        }
         let w = self.out.as_mut().expect("open until finish");
         w.timestamp(t)?;
         w.begin(SimulationCommand::Dumpvars)?;
@@ -542,6 +639,16 @@ impl VcdWriter {
     /// `#t` and the changed values.
     fn write_changes(&mut self, t: u64) -> io::Result<()> {
         self.timestamps += 1;
+        if let Some(Fst::Body(b)) = &mut self.fst {
+            b.time_change(t).map_err(fst_err)?;
+            for &i in &self.dirty {
+                fst_value(b, &self.slots[i], &mut self.fst_buf)?;
+            }
+            if self.timestamps.is_multiple_of(256) && b.size() > FST_FLUSH_BYTES {
+                b.flush().map_err(fst_err)?;
+            }
+            return Ok(());
+        }
         let w = self.out.as_mut().expect("open until finish");
         w.timestamp(t)?;
         for &i in &self.dirty {
@@ -678,6 +785,83 @@ fn declare<W: Write>(
         w.upscope()?;
     }
     Ok(())
+}
+
+impl Slot {
+    /// True when the header declared it (inside the scope filter).
+    fn declared(&self) -> bool {
+        self.id.is_some() || self.fst_id.is_some()
+    }
+}
+
+/// An FST error as an I/O error (the writer reports every failure as "writing: …").
+fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
+    match e {
+        fst_writer::FstWriteError::Io(e) => e,
+        e => io::Error::other(e.to_string()),
+    }
+}
+
+/// Declares `node`'s children in the FST, as [`declare`] does in the VCD.
+fn declare_fst<W: Write + io::Seek>(
+    h: &mut FstHeaderWriter<W>,
+    node: &ScopeNode,
+    slots: &mut [Slot],
+    order: &mut Vec<usize>,
+) -> fst_writer::Result<()> {
+    for c in &node.children {
+        h.scope(&c.name, "", FstScopeType::Module)?;
+        for &i in &c.vars {
+            let s = &mut slots[i];
+            let width = match s.kind {
+                SignalKind::Text => 8 * FST_TEXT_CHARS,
+                _ => s.width,
+            };
+            let id = h.var(
+                &s.name,
+                FstSignalType::bit_vec(width),
+                FstVarType::Wire,
+                FstVarDirection::Implicit,
+                None,
+            )?;
+            s.fst_id = Some(id);
+            order.push(i);
+        }
+        declare_fst(h, c, slots, order)?;
+        h.up_scope()?;
+    }
+    Ok(())
+}
+
+/// Writes one value change into the FST: the bits MSB first, a text as ASCII bytes.
+fn fst_value<W: Write + io::Seek>(
+    b: &mut FstBodyWriter<W>,
+    s: &Slot,
+    buf: &mut Vec<u8>,
+) -> io::Result<()> {
+    let id = s.fst_id.expect("only declared signals are written");
+    buf.clear();
+    match &s.value {
+        Val::Bits(v) => {
+            for k in (0..s.width).rev() {
+                buf.push(b'0' + ((v >> k) & 1) as u8);
+            }
+        }
+        Val::Text(t) => {
+            let bytes = t.as_bytes();
+            let n = FST_TEXT_CHARS as usize;
+            let tail = &bytes[bytes.len().saturating_sub(n)..];
+            for _ in tail.len()..n {
+                buf.extend_from_slice(b"00000000");
+            }
+            for &c in tail {
+                for k in (0..8).rev() {
+                    buf.push(b'0' + ((c >> k) & 1));
+                }
+            }
+        }
+    }
+    b.signal_change(id, buf).map_err(fst_err)
 }
 
 /// Writes one value change line.

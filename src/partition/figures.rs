@@ -64,7 +64,8 @@ fn run_kind(
     ratio: usize,
     g: Granularity,
 ) -> Partition {
-    let mut cfg = Config::paper(kind.default_source() as u32, sections, FIGURE_CTUS, ratio);
+    let mut cfg = Config::paper(kind.default_source() as u32, sections, FIGURE_CTUS, ratio)
+        .scaled_to(scene.bounds.scale());
     cfg.granularity = g;
     partition(scene, tracer, &cfg)
 }
@@ -74,7 +75,13 @@ pub fn figures(dir: &Path) -> Result<()> {
     let start = Instant::now();
     for kind in [Kind::Scene1, Kind::Scene2] {
         let scene = gen::generate(kind, gen::DEFAULT_SEED);
-        let tracer = Tracer::new(&scene, crate::config::built_in().machine.cell_size)?;
+        let tracer = Tracer::new(
+            &scene,
+            crate::config::cell_size(
+                crate::config::built_in().machine.cell_size,
+                scene.bounds.scale(),
+            ),
+        )?;
         for ratio in RATIOS {
             let panels: Vec<Panel> = SECTIONS
                 .iter()
@@ -129,7 +136,13 @@ pub fn imbalance_table() -> Result<String> {
     let _ = writeln!(s, "| --- | --- | --- | --- | --- | --- | --- | --- |");
     for kind in Kind::ALL {
         let scene = gen::generate(kind, gen::DEFAULT_SEED);
-        let tracer = Tracer::new(&scene, crate::config::built_in().machine.cell_size)?;
+        let tracer = Tracer::new(
+            &scene,
+            crate::config::cell_size(
+                crate::config::built_in().machine.cell_size,
+                scene.bounds.scale(),
+            ),
+        )?;
         for g in [Granularity::Subregion, Granularity::Ray] {
             let mut cells = Vec::new();
             let mut loads = String::new();

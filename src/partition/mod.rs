@@ -92,8 +92,10 @@ pub struct Config {
 
 impl Config {
     /// The paper's parameters (Table 12.1, [`crate::paper`]) for `sections` × `ctus` at
-    /// `ratio`; the shell radius and the subshell threshold of the built-in configuration
-    /// (`machine.shell_radius`, `machine.subshell_max_patches`).
+    /// `ratio`; the shell radius, cell size and subshell threshold of the built-in
+    /// configuration (`machine.shell_radius`, `machine.cell_size`,
+    /// `machine.subshell_max_patches`) for a scene of scale 1 (the unit cube; see
+    /// [`Config::scaled_to`]).
     pub fn paper(source: u32, sections: usize, ctus: usize, ratio: usize) -> Config {
         Config {
             source,
@@ -106,8 +108,17 @@ impl Config {
             shell_radius: ShellParams::default().radius,
             subshell_max: ShellParams::default().subshell_max,
             seed: 1,
-            cell_size: crate::config::built_in().machine.cell_size,
+            cell_size: crate::config::cell_size(crate::config::built_in().machine.cell_size, 1.0),
         }
+    }
+
+    /// The built-in configuration's shell radius and cell size for a scene of `scale`
+    /// (`Aabb::scale`) instead of the unit cube's.
+    pub fn scaled_to(mut self, scale: f64) -> Config {
+        let m = &crate::config::built_in().machine;
+        self.shell_radius = crate::config::shell_radius(m.shell_radius, scale);
+        self.cell_size = crate::config::cell_size(m.cell_size, scale);
+        self
     }
 
     /// The high-resolution ray count.

@@ -56,18 +56,15 @@ pub struct Report {
     pub low_resolution: Vec<BoxReport>,
 }
 
-/// What a section and a sector report alike: its box, its actual work and the
-/// low-resolution prediction. Flattened into both, so their JSON lists these fields first.
+/// What a section and a sector report alike: its box and actual work (as a low-resolution
+/// box reports them) and the low-resolution prediction. Flattened into both, so their JSON
+/// lists these fields first.
 #[derive(Clone, Debug, Serialize)]
 pub struct PartReport {
-    /// Index among the partition's sections, or within its section for a sector.
-    pub index: usize,
-    pub theta_deg: [f64; 2],
-    pub phi_deg: [f64; 2],
-    pub rays: u64,
-    pub intersections: u64,
-    pub traversals: u64,
-    pub patch_loads: u64,
+    /// Index among the partition's sections, or within its section for a sector; the box
+    /// and the actual work of the high-resolution pass.
+    #[serde(flatten)]
+    pub actual: BoxReport,
     pub predicted_rays: u64,
     pub predicted_intersections: u64,
     pub predicted_traversals: u64,
@@ -76,13 +73,7 @@ pub struct PartReport {
 impl PartReport {
     fn new(index: usize, bounds: &AngleBox, actual: &Workload, predicted: &Workload) -> Self {
         PartReport {
-            index,
-            theta_deg: bounds.theta_deg(),
-            phi_deg: bounds.phi_deg(),
-            rays: actual.rays,
-            intersections: actual.intersections,
-            traversals: actual.traversals,
-            patch_loads: actual.patch_loads,
+            actual: BoxReport::new(index, bounds, actual),
             predicted_rays: predicted.rays,
             predicted_intersections: predicted.intersections,
             predicted_traversals: predicted.traversals,
@@ -120,6 +111,20 @@ pub struct BoxReport {
     pub patch_loads: u64,
 }
 
+impl BoxReport {
+    fn new(index: usize, bounds: &AngleBox, w: &Workload) -> Self {
+        BoxReport {
+            index,
+            theta_deg: bounds.theta_deg(),
+            phi_deg: bounds.phi_deg(),
+            rays: w.rays,
+            intersections: w.intersections,
+            traversals: w.traversals,
+            patch_loads: w.patch_loads,
+        }
+    }
+}
+
 impl Report {
     /// The report of a run.
     pub fn new(p: &Partition) -> Report {
@@ -154,7 +159,7 @@ impl Report {
             .collect();
         let sector_imbalance = sections
             .iter()
-            .map(|s| imbalance(s.sectors.iter().map(|x| x.part.traversals)))
+            .map(|s| imbalance(s.sectors.iter().map(|x| x.part.actual.traversals)))
             .fold(1.0f64, f64::max);
         let total = work.iter().fold(Workload::default(), |mut a, w| {
             a.add(w);
@@ -192,18 +197,7 @@ impl Report {
                 .work
                 .iter()
                 .enumerate()
-                .map(|(k, w)| {
-                    let b = p.low.grid.box_of(k);
-                    BoxReport {
-                        index: k,
-                        theta_deg: b.theta_deg(),
-                        phi_deg: b.phi_deg(),
-                        rays: w.rays,
-                        intersections: w.intersections,
-                        traversals: w.traversals,
-                        patch_loads: w.patch_loads,
-                    }
-                })
+                .map(|(k, w)| BoxReport::new(k, &p.low.grid.box_of(k), w))
                 .collect(),
         }
     }
@@ -245,18 +239,19 @@ impl Report {
         for s in &self.sections {
             crate::output::outln!(
                 "{:>7}  {:>6.2}–{:<8.2}  {:>6.2}–{:<8.2}  {:>8}  {:>7}  {:>12}  {:>+7.1}%  {:>7}",
-                s.part.index,
-                s.part.theta_deg[0],
-                s.part.theta_deg[1],
-                s.part.phi_deg[0],
-                s.part.phi_deg[1],
-                s.part.rays,
+                s.part.actual.index,
+                s.part.actual.theta_deg[0],
+                s.part.actual.theta_deg[1],
+                s.part.actual.phi_deg[0],
+                s.part.actual.phi_deg[1],
+                s.part.actual.rays,
                 s.sectors.len(),
-                s.part.intersections,
+                s.part.actual.intersections,
                 100.0
-                    * (s.part.predicted_intersections as f64 / s.part.intersections.max(1) as f64
+                    * (s.part.predicted_intersections as f64
+                        / s.part.actual.intersections.max(1) as f64
                         - 1.0),
-                s.part.patch_loads
+                s.part.actual.patch_loads
             );
         }
         crate::output::outln!(

@@ -54,12 +54,13 @@ pub struct ShellParams {
 }
 
 impl Default for ShellParams {
-    /// The built-in configuration's `machine.shell_radius` and
-    /// `machine.subshell_max_patches` (hw/configs/paper.toml).
+    /// The built-in configuration's `machine.shell_radius` (for a scene of scale 1, the
+    /// unit cube: see `config::shell_radius`) and `machine.subshell_max_patches`
+    /// (hw/configs/paper.toml).
     fn default() -> Self {
         let m = &crate::config::built_in().machine;
         ShellParams {
-            radius: m.shell_radius,
+            radius: crate::config::shell_radius(m.shell_radius, 1.0),
             subshell_max: m.subshell_max_patches as usize,
         }
     }

@@ -73,6 +73,14 @@ impl Aabb {
     pub fn extent(&self) -> DVec3 {
         self.hi - self.lo
     }
+
+    /// The scene's length scale: its largest extent (1 for the unit cube). The hardware
+    /// works in units of it (coordinates relative to `lo`, divided by the scale), so a scene
+    /// scaled by any factor gives the hardware the same numbers.
+    pub fn scale(&self) -> f64 {
+        let e = self.extent();
+        e.x.max(e.y).max(e.z)
+    }
 }
 
 /// A scene: a name, the bounds every patch lies in, and the patches.

@@ -104,6 +104,10 @@ pub fn check_shape(v: &[DVec3]) -> Result<(), String> {
         }
     }
     let diam = size(v);
+    // Relative to the first vertex: Newell's sum over absolute positions cancels badly for
+    // a small polygon far from the origin (a scene in millimetres, or moved away).
+    let local: Vec<DVec3> = v.iter().map(|p| *p - v[0]).collect();
+    let v = &local[..];
     let av = area_vector(v);
     let area = 0.5 * av.length();
     if area.is_nan() || area <= 1e-12 * diam * diam || area == 0.0 {

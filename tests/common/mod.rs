@@ -161,6 +161,16 @@ pub fn check_variant(file: &str, v: &Variant) -> RunOutput {
     out
 }
 
+/// Two runs gave the same statistics (their deterministic JSON) and the same hits.
+pub fn assert_same_run(a: &RunOutput, b: &RunOutput, what: &str) {
+    assert_eq!(
+        serde_json::to_string(&a.stats).unwrap(),
+        serde_json::to_string(&b.stats).unwrap(),
+        "{what}: statistics differ"
+    );
+    assert_eq!(a.hits, b.hits, "{what}: hits differ");
+}
+
 /// One `#[test]` per case, as mooneye-gb's suite builds one test per ROM × model: each case
 /// is a name and the expression it runs, so a failing case hides no other and runs alone by
 /// name (`cargo test --test machine scene1::c4::k2`).

@@ -16,6 +16,71 @@ pub enum ArbiterPolicy {
     FixedPriority,
 }
 
+/// A length in scene units, or `"auto"`: derived from the scene by the host's stated rule
+/// (see the host's `config::resolve`). The machine is only ever built from a resolved
+/// configuration (every length a value); serialized, a value is a plain number.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Length {
+    /// Derived from the scene.
+    Auto,
+    /// Given, in scene units.
+    Value(f64),
+}
+
+impl Length {
+    /// The value, `None` while it is `auto`.
+    pub fn get(self) -> Option<f64> {
+        match self {
+            Length::Auto => None,
+            Length::Value(v) => Some(v),
+        }
+    }
+
+    /// The value of a resolved length (the host resolves every `auto` before use; an
+    /// unresolved one here is a bug of the host, not bad input).
+    pub fn value(self) -> f64 {
+        self.get()
+            .expect("an `auto` length is resolved by the host before it is used")
+    }
+
+    /// The value, or `rule` when it is `auto`.
+    pub fn or(self, rule: f64) -> f64 {
+        self.get().unwrap_or(rule)
+    }
+}
+
+impl Serialize for Length {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Length::Auto => s.serialize_str("auto"),
+            Length::Value(v) => s.serialize_f64(*v),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Length {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Float(f64),
+            Int(i64),
+            Text(String),
+        }
+        match Raw::deserialize(d) {
+            Ok(Raw::Float(v)) => Ok(Length::Value(v)),
+            Ok(Raw::Int(v)) => Ok(Length::Value(v as f64)),
+            Ok(Raw::Text(t)) if t == "auto" => Ok(Length::Auto),
+            Ok(Raw::Text(t)) => Err(serde::de::Error::custom(format!(
+                "{t:?} is not a length: give a number (scene units) or \"auto\""
+            ))),
+            Err(_) => Err(serde::de::Error::custom(
+                "not a length: give a number (scene units) or \"auto\"",
+            )),
+        }
+    }
+}
+
 /// The `[machine]` table.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -40,11 +105,13 @@ pub struct MachineTable {
     pub divider_bits_per_stage: u32,
     /// A CTU ends a subshell (and joins) once it has loaded this many patches in it.
     pub subshell_max_patches: u32,
-    /// Shell radius (in units of the scene; the paper's 0.289). It must be representable in
-    /// the t format (see [`MachineTable::shell_raw`]).
-    pub shell_radius: f64,
-    /// Grid cell edge in scene units (Table 12.1's 0.05).
-    pub cell_size: f64,
+    /// Shell radius in scene units, or `auto` (the host's rule gives the paper's 0.289 on
+    /// the unit cube). Resolved, it must be representable in the t format (see
+    /// [`MachineTable::shell_raw`]).
+    pub shell_radius: Length,
+    /// Grid cell edge in scene units, or `auto` (the host's rule gives Table 12.1's 0.05 on
+    /// the unit cube).
+    pub cell_size: Length,
     /// Jump over cycles in which every unit waits on a timer.
     pub cycle_jump: bool,
     /// Stop with a report when nothing progresses for this many cycles.
@@ -135,12 +202,16 @@ impl MachineTable {
             1 << 24,
         )?;
         range("watchdog_cycles", self.watchdog_cycles, 10, 1 << 40)?;
-        self.shell_raw(t)?;
-        if !(self.cell_size.is_finite() && self.cell_size > 0.0) {
-            return Err(err(
-                "cell_size",
-                format!("{:?} must be a finite length above 0", self.cell_size),
-            ));
+        if self.shell_radius != Length::Auto {
+            self.shell_raw(t)?;
+        }
+        if let Length::Value(c) = self.cell_size {
+            if !(c.is_finite() && c > 0.0) {
+                return Err(err(
+                    "cell_size",
+                    format!("{c:?} must be a finite length above 0"),
+                ));
+            }
         }
         Ok(())
     }
@@ -149,10 +220,14 @@ impl MachineTable {
     /// one conversion of it. A radius that is not a positive length, rounds to zero, or does
     /// not fit `t` is an error naming `machine.shell_radius` — never clamped.
     pub fn shell_raw(&self, t: Format) -> Result<i64, ConfigError> {
-        let r = self.shell_radius;
         let err = |what: String| ConfigError {
             key: "machine.shell_radius".into(),
             what,
+        };
+        let Length::Value(r) = self.shell_radius else {
+            return Err(err(
+                "auto: the host resolves it from the scene before the machine is built".into(),
+            ));
         };
         if !(r.is_finite() && r > 0.0) {
             return Err(err(format!("{r:?} must be a positive length")));

@@ -6,7 +6,7 @@ pub mod datapath;
 pub mod machine;
 
 pub use datapath::{DatapathConfig, Formats, HardwareCost};
-pub use machine::{ArbiterPolicy, BalanceTable, MachineTable, VictimPolicy};
+pub use machine::{ArbiterPolicy, BalanceTable, Length, MachineTable, VictimPolicy};
 
 use serde::{Deserialize, Serialize};
 
@@ -165,10 +165,11 @@ mod tests {
     #[test]
     fn paper_and_small_parse() {
         let p = paper();
-        assert_eq!(p.machine.cell_size, 0.05);
+        assert_eq!(p.machine.cell_size, Length::Auto);
+        assert_eq!(p.machine.shell_radius, Length::Auto);
         assert!(p.balance.enabled);
         let s = MachineConfig::from_toml_str(include_str!("../../configs/small.toml")).unwrap();
-        assert_eq!(s.machine.cell_size, 0.05);
+        assert_eq!(s.machine.cell_size, Length::Auto);
         assert_eq!(s.datapath, p.datapath);
     }
 
@@ -203,7 +204,7 @@ mod tests {
 
     fn with_radius(r: &str) -> Result<MachineConfig, ConfigError> {
         MachineConfig::from_toml_str(
-            &PAPER_TOML.replace("shell_radius = 0.289", &format!("shell_radius = {r}")),
+            &PAPER_TOML.replace("shell_radius = \"auto\"", &format!("shell_radius = {r}")),
         )
     }
 
@@ -218,6 +219,31 @@ mod tests {
         assert_eq!(e.key, "machine.shell_radius", "{e:?}");
         let c = with_radius("0.289").unwrap();
         assert_eq!(c.shell_raw().unwrap(), (0.289f64 * 4096.0).round() as i64);
+        // `auto` validates, but a machine cannot be built from it before the host resolves it.
+        let a = with_radius("\"auto\"").unwrap();
+        assert_eq!(a.shell_raw().unwrap_err().key, "machine.shell_radius");
+    }
+
+    #[test]
+    fn a_length_is_a_number_or_auto() {
+        for (v, want) in [
+            ("2", Length::Value(2.0)),
+            ("0.5", Length::Value(0.5)),
+            ("\"auto\"", Length::Auto),
+        ] {
+            let text = PAPER_TOML.replace("cell_size = \"auto\"", &format!("cell_size = {v}"));
+            assert_eq!(
+                MachineConfig::from_toml_str(&text)
+                    .unwrap()
+                    .machine
+                    .cell_size,
+                want,
+                "{v}"
+            );
+        }
+        let text = PAPER_TOML.replace("cell_size = \"auto\"", "cell_size = \"big\"");
+        let e = MachineConfig::from_toml_str(&text).unwrap_err();
+        assert!(e.what.contains("not a length"), "{e:?}");
     }
 
     #[test]
@@ -245,7 +271,7 @@ mod tests {
     #[test]
     fn a_bad_cell_size_is_an_error() {
         for v in ["0.0", "-0.05", "nan", "inf"] {
-            let text = PAPER_TOML.replace("cell_size = 0.05", &format!("cell_size = {v}"));
+            let text = PAPER_TOML.replace("cell_size = \"auto\"", &format!("cell_size = {v}"));
             let e = MachineConfig::from_toml_str(&text).unwrap_err();
             assert_eq!(e.key, "machine.cell_size", "{v}: {e:?}");
         }

@@ -5,7 +5,6 @@
 use super::links::{probe_link, Section};
 use super::Machine;
 use crate::trace::Probe;
-use crate::units::icu::StageValue;
 
 impl Machine<'_> {
     /// Reports every unit's signals to `p` (scope names are built once, not per cycle).
@@ -79,15 +78,13 @@ impl Machine<'_> {
             }
             p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
             for n in 0..cl.icu.depth() {
-                let st = cl.icu.stage(n).copied();
+                let st = cl.icu.stage_job(n);
                 let ss = &cs.stages[n];
                 p.bits(ss, "valid", 1, st.is_some() as u64);
-                p.bits(ss, "ray", 32, st.map_or(0, |r| r.job.ray as u64));
-                p.bits(ss, "patch", 24, st.map_or(0, |r| r.job.patch as u64));
-                let t = match st.map(|r| r.value) {
-                    Some(StageValue::Result(Some(t))) => t,
-                    _ => 0,
-                };
+                p.bits(ss, "ray", 32, st.map_or(0, |(j, _)| j.ray as u64));
+                p.bits(ss, "patch", 24, st.map_or(0, |(j, _)| j.patch as u64));
+                // t is shown in the result stage only (`stage_job` gives it there alone).
+                let t = st.and_then(|(_, t)| t).unwrap_or(0);
                 p.fixed(ss, "t", t_bits, t_frac, t);
             }
         }

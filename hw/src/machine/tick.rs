@@ -13,19 +13,30 @@ impl Machine<'_> {
     /// One clock cycle: tick every unit in `order`, then commit every link.
     pub fn tick(&mut self, order: TickOrder) {
         let now = self.cycle;
-        self.scratch.clear();
-        self.scratch.extend_from_slice(&self.order);
+        let n = self.order.len();
         match order {
-            TickOrder::Forward => {}
-            TickOrder::Reverse => self.scratch.reverse(),
-            TickOrder::Shuffled(seed) => shuffle(
-                &mut self.scratch,
-                seed ^ now.wrapping_mul(0x9E37_79B9_7F4A_7C15),
-            ),
-        }
-        for i in 0..self.scratch.len() {
-            let u = self.scratch[i];
-            self.tick_unit(u, now);
+            // Forward and reverse walk `order` itself; only a shuffle needs the scratch copy.
+            TickOrder::Forward => {
+                for i in 0..n {
+                    self.tick_unit(self.order[i], now);
+                }
+            }
+            TickOrder::Reverse => {
+                for i in (0..n).rev() {
+                    self.tick_unit(self.order[i], now);
+                }
+            }
+            TickOrder::Shuffled(seed) => {
+                self.scratch.clear();
+                self.scratch.extend_from_slice(&self.order);
+                shuffle(
+                    &mut self.scratch,
+                    seed ^ now.wrapping_mul(0x9E37_79B9_7F4A_7C15),
+                );
+                for i in 0..n {
+                    self.tick_unit(self.scratch[i], now);
+                }
+            }
         }
         self.links.commit_all();
         for cl in &mut self.clusters {

@@ -72,11 +72,26 @@ pub struct IcuStats {
     pub hits: u64,
 }
 
+/// One stage register as the model stores it: the job and a field for every stage's output.
+/// Stage k writes only its own field (the next stage's input), so a pipeline advance writes a
+/// few words per register instead of moving a whole [`StageValue`]; which fields are
+/// meaningful follows from the register's logical stage (see [`Icu::stage`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Reg {
+    valid: bool,
+    job: Job,
+    translated: Translated,
+    sheared: RaySpace,
+    edges: Edges,
+    interpolated: Interpolated,
+    t: Option<i64>,
+}
+
 /// The ICU. The stage registers sit in a ring: logical stage k is slot (base + k) mod S, so a
 /// pipeline advance moves `base` instead of copying every register.
 #[derive(Clone, Debug)]
 pub struct Icu {
-    slots: Vec<Option<StageReg>>,
+    slots: Vec<Reg>,
     base: usize,
     /// Registers holding a job.
     count: usize,
@@ -88,7 +103,7 @@ impl Icu {
     /// A pipeline of 4 + `divider_stages` + 1 stages.
     pub fn new(divider_stages: u32) -> Self {
         Icu {
-            slots: vec![None; 4 + divider_stages as usize + 1],
+            slots: vec![Reg::default(); 4 + divider_stages as usize + 1],
             base: 0,
             count: 0,
             exceptions: Exceptions::default(),
@@ -101,10 +116,34 @@ impl Icu {
         self.slots.len()
     }
 
-    /// Stage `k`'s register (0 = translate, depth − 1 = result).
+    /// Stage `k`'s register (0 = translate, depth − 1 = result), as the value that stage
+    /// holds.
+    pub fn stage(&self, k: usize) -> Option<StageReg> {
+        let n = self.slots.len();
+        let r = self.reg(k)?;
+        let value = match k {
+            0 => StageValue::Translated(r.translated),
+            1 => StageValue::Sheared(r.sheared),
+            2 => StageValue::Edged(r.sheared, r.edges),
+            k if k + 1 == n => StageValue::Result(r.t),
+            3 => StageValue::Interpolated(r.interpolated),
+            _ => StageValue::Dividing(r.interpolated),
+        };
+        Some(StageReg { job: r.job, value })
+    }
+
+    /// Stage `k`'s job and, in the last stage, its result (t raw or no hit) — what the
+    /// waveform shows, without building the stage's value.
     #[inline]
-    pub fn stage(&self, k: usize) -> Option<&StageReg> {
-        self.slots[(self.base + k) % self.slots.len()].as_ref()
+    pub fn stage_job(&self, k: usize) -> Option<(Job, Option<i64>)> {
+        let last = k + 1 == self.slots.len();
+        self.reg(k).map(|r| (r.job, if last { r.t } else { None }))
+    }
+
+    #[inline]
+    fn reg(&self, k: usize) -> Option<&Reg> {
+        let r = &self.slots[(self.base + k) % self.slots.len()];
+        r.valid.then_some(r)
     }
 
     /// Stage registers holding a job.
@@ -123,27 +162,25 @@ impl Icu {
         self.stats.stage_cycles += n * self.slots.len() as u64;
     }
 
-    /// Turns stage `k`'s value into stage `k + 1`'s, in place (no copy of the register).
+    /// Turns stage `k`'s value into stage `k + 1`'s, in place: each stage writes only its
+    /// own output field. The divider's stages carry the fraction; the quotient appears in the
+    /// last stage (`last`).
     #[inline]
     fn advance(
         last: usize,
         k: usize,
-        v: &mut StageValue,
+        r: &mut Reg,
         ray: &RayRecord,
         f: &Formats,
         exc: &mut Exceptions,
     ) {
-        *v = match *v {
-            StageValue::Translated(t) => StageValue::Sheared(datapath::shear(ray, &t, f)),
-            StageValue::Sheared(s) => StageValue::Edged(s, datapath::edges(&s)),
-            StageValue::Edged(s, e) => StageValue::Interpolated(datapath::interpolate(&s, &e)),
-            // The divider's stages carry the fraction; the quotient appears in the last stage.
-            StageValue::Interpolated(q) | StageValue::Dividing(q) if k + 1 == last => {
-                StageValue::Result(datapath::divide(&q, f, exc))
-            }
-            StageValue::Interpolated(q) => StageValue::Dividing(q),
-            StageValue::Dividing(_) | StageValue::Result(_) => return,
-        };
+        match k {
+            0 => r.sheared = datapath::shear(ray, &r.translated, f),
+            1 => r.edges = datapath::edges(&r.sheared),
+            2 => r.interpolated = datapath::interpolate(&r.sheared, &r.edges),
+            k if k + 1 == last => r.t = datapath::divide(&r.interpolated, f, exc),
+            _ => {}
+        }
     }
 
     /// One clock cycle: the result at the end leaves (if its CTU's result link is ready),
@@ -170,7 +207,8 @@ impl Icu {
             return;
         }
         let last = (self.base + n - 1) % n;
-        if let Some(reg) = &self.slots[last] {
+        if self.slots[last].valid {
+            let reg = &self.slots[last];
             // A job from another cluster (dynamic balancing) sends its result home.
             let local = reg.job.owner == cluster;
             let ready = if local {
@@ -182,9 +220,7 @@ impl Icu {
                 self.stats.stalled_cycles += 1;
                 return;
             }
-            let StageValue::Result(t) = reg.value else {
-                unreachable!("the last stage holds a result")
-            };
+            let t = reg.t;
             let r = JobResult {
                 slot: reg.job.slot,
                 patch: reg.job.patch,
@@ -208,43 +244,38 @@ impl Icu {
         }
         // Busy stage-cycles: the registers that held a job this cycle (the leaving one too).
         let valid = self.count as u64;
-        if self.slots[last].take().is_some() {
+        if self.slots[last].valid {
+            self.slots[last].valid = false;
             self.count -= 1;
         }
         // Each register computes the next stage's value in place; then the ring turns so
         // that logical stage k becomes k + 1 and the emptied last slot becomes stage 0.
         let mut exc = self.exceptions;
+        let mut i = self.base;
         for k in 0..n - 1 {
-            let i = (self.base + k) % n;
-            if let Some(r) = &mut self.slots[i] {
-                Self::advance(
-                    n - 1,
-                    k,
-                    &mut r.value,
-                    &rays[r.job.ray as usize],
-                    f,
-                    &mut exc,
-                );
+            let r = &mut self.slots[i];
+            if r.valid {
+                Self::advance(n - 1, k, r, &rays[r.job.ray as usize], f, &mut exc);
             }
+            i = if i + 1 == n { 0 } else { i + 1 };
         }
         self.base = last;
         if input.peek().is_some() {
             let job = input.pop(me);
-            let t = datapath::translate(
+            let r = &mut self.slots[self.base];
+            r.translated = datapath::translate(
                 &rays[job.ray as usize],
                 &patches[job.patch as usize],
                 f,
                 &mut exc,
             );
-            self.slots[self.base] = Some(StageReg {
-                job,
-                value: StageValue::Translated(t),
-            });
+            r.job = job;
+            r.valid = true;
             self.count += 1;
             self.stats.jobs_in += 1;
         }
         self.exceptions = exc;
-        if valid > 0 || self.slots[self.base].is_some() {
+        if valid > 0 || self.slots[self.base].valid {
             self.stats.busy_cycles += 1;
             self.stats.busy_stage_cycles += valid;
         } else {

@@ -53,6 +53,10 @@ impl RayBuffer {
         let occ = self.queue.len() as u64;
         self.stats.occupancy_sum += occ;
         self.stats.max_occupancy = self.stats.max_occupancy.max(occ);
+        // Provably idle: no order and nothing at any input — only the occupancy counters move.
+        if orders.is_empty() && from_network.is_empty() && inputs.iter().all(Link::is_empty) {
+            return;
+        }
         if orders.peek().is_some() && out.can_push() {
             let o = orders.pop(me);
             let k = (o.jobs as usize).min(self.queue.len().saturating_sub(1));
@@ -77,12 +81,11 @@ impl RayBuffer {
         let n = inputs.len() + 1;
         // The starting input turns only when a job moves (an idle cycle changes no state,
         // so the machine's cycle jump cannot change the order).
-        let start = self.next;
-        for k in 0..n {
+        let mut i = self.next;
+        for _ in 0..n {
             if !self.queue.can_push() {
                 break;
             }
-            let i = (start + k) % n;
             let link = if i < inputs.len() {
                 &mut inputs[i]
             } else {
@@ -92,8 +95,9 @@ impl RayBuffer {
                 let job = link.pop(me);
                 self.queue.push(me, job);
                 self.stats.jobs_in += 1;
-                self.next = (i + 1) % n;
+                self.next = if i + 1 == n { 0 } else { i + 1 };
             }
+            i = if i + 1 == n { 0 } else { i + 1 };
         }
     }
 }

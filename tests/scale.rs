@@ -1,0 +1,134 @@
+//! Scale invariance: a committed scene scaled by 278, 0.01 or 1000 and moved away from the
+//! origin, run with no configuration written by hand (the built-in paper.toml, whose cell
+//! size and shell radius are `auto`), gives the same rays the same hits — patch ids in the
+//! float reference and in the fixed-point model — and the machine the same cycles and
+//! statistics as the original. The hardware works in units of the scene's largest extent,
+//! so it sees the same numbers.
+
+mod common;
+
+use glam::DVec3;
+use shellsim::machine::run::run;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::Tracer;
+use shellsim::scene::Scene;
+use std::path::Path;
+
+/// `scene` with every point p mapped to k·p + t (bounds included).
+fn transformed(scene: &Scene, k: f64, t: DVec3) -> Scene {
+    let mut s = scene.clone();
+    s.name = format!("{}-x{k}", scene.name);
+    s.bounds.lo = s.bounds.lo * k + t;
+    s.bounds.hi = s.bounds.hi * k + t;
+    for p in &mut s.patches {
+        for v in &mut p.vertices {
+            *v = *v * k + t;
+        }
+    }
+    s.validate(Path::new("<transformed>"))
+        .unwrap_or_else(|e| panic!("the transformed scene is valid: {e}"));
+    s
+}
+
+/// The natural source of each committed scene used here.
+fn source(file: &str) -> u32 {
+    if file == "cornell.json" {
+        1
+    } else {
+        0
+    }
+}
+
+/// Float reference: the same 2,000 Malley rays (drawn on each scene's own source patch)
+/// hit the same patches.
+fn float_hits(scene: &Scene, src: u32) -> Vec<Option<u32>> {
+    let cell = shellsim::config::cell_size(
+        shellsim::config::built_in().machine.cell_size,
+        scene.bounds.scale(),
+    );
+    let tracer = Tracer::new(scene, cell).unwrap();
+    let set = hemisphere_rays(
+        &scene.patches[src as usize],
+        2000,
+        Directions::Malley,
+        Origins::Patch,
+        7,
+    );
+    set.rays
+        .iter()
+        .map(|r| tracer.trace(r, Some(src)).map(|h| h.patch))
+        .collect()
+}
+
+fn same_after_scaling(file: &str, k: f64) {
+    let original = common::load(file);
+    let moved = transformed(&original, k, DVec3::new(17.0, -3.5, 250.0) * k);
+    let src = source(file);
+    let what = format!("{file} scaled by {k}");
+    // Float reference.
+    assert_eq!(
+        float_hits(&original, src),
+        float_hits(&moved, src),
+        "{what}: float hits"
+    );
+    // Fixed-point model and machine, on the built-in configuration (lengths `auto`).
+    let cfg = *shellsim::config::built_in();
+    let a = run(&original, Path::new(file), &cfg, &common::spec(), None).unwrap();
+    let b = run(&moved, Path::new(file), &cfg, &common::spec(), None)
+        .unwrap_or_else(|e| panic!("{what}: {e}"));
+    let ids = |h: &[Option<shellsim_hw::FixedHit>]| -> Vec<Option<u32>> {
+        h.iter().map(|x| x.map(|x| x.patch)).collect()
+    };
+    assert_eq!(
+        ids(&a.reference),
+        ids(&b.reference),
+        "{what}: fixed-point hits"
+    );
+    assert_eq!(b.stats.mismatches_vs_fixed, 0, "{what}");
+    assert_eq!(ids(&a.hits), ids(&b.hits), "{what}: machine hits");
+    let (mut sa, mut sb) = (a.stats.clone(), b.stats.clone());
+    sa.scene.clear();
+    sb.scene.clear();
+    assert_eq!(
+        serde_json::to_string(&sa).unwrap(),
+        serde_json::to_string(&sb).unwrap(),
+        "{what}: machine statistics (cycles {} vs {})",
+        a.stats.cycles,
+        b.stats.cycles
+    );
+}
+
+testcases! { same_after_scaling;
+    scene1_x278 => "scene1.json", 278.0;
+    scene1_x0_01 => "scene1.json", 0.01;
+    scene1_x1000 => "scene1.json", 1000.0;
+    cornell_x278 => "cornell.json", 278.0;
+    cornell_x0_01 => "cornell.json", 0.01;
+    cornell_x1000 => "cornell.json", 1000.0;
+    scene2_x278 => "scene2.json", 278.0;
+    scene2_x0_01 => "scene2.json", 0.01;
+    scene2_x1000 => "scene2.json", 1000.0;
+}
+
+#[test]
+fn the_resolved_lengths_scale_with_the_scene() {
+    let cfg = shellsim::config::built_in();
+    let r = shellsim::config::resolve(cfg, 555.0).unwrap();
+    assert_eq!(r.machine.cell_size.value(), 555.0 / 20.0);
+    assert_eq!(r.machine.shell_radius.value(), 0.289 * 555.0);
+    // On the unit cube the rules give Table 12.1 exactly.
+    let u = shellsim::config::resolve(cfg, 1.0).unwrap();
+    assert_eq!(u.machine.cell_size.value(), 0.05);
+    assert_eq!(u.machine.shell_radius.value(), 0.289);
+    // An explicit value wins.
+    let mut c = *cfg;
+    c.machine.cell_size = shellsim_hw::config::Length::Value(10.0);
+    assert_eq!(
+        shellsim::config::resolve(&c, 555.0)
+            .unwrap()
+            .machine
+            .cell_size
+            .value(),
+        10.0
+    );
+}
