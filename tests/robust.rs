@@ -699,3 +699,49 @@ fn dev_zero_as_input_under_a_memory_limit_is_refused() {
     .unwrap();
     ran(out).refused(&["/dev/zero", "input limit"]);
 }
+
+/// `run` on the Cornell box, ratio 1, with `extra` arguments, in `dir`.
+fn run_cornell(dir: &Path, extra: &[&str]) -> Ran {
+    let scene = cornell();
+    let mut args = vec!["run", "--scene", &scene, "--source", "1", "--ratio", "1"];
+    args.extend_from_slice(extra);
+    shellsim(dir, &args)
+}
+
+#[test]
+fn a_vcd_scope_matching_nothing_is_an_error_not_an_empty_file() {
+    let d = tempfile::tempdir().unwrap();
+    let r = run_cornell(d.path(), &["--vcd", "w.vcd", "--vcd-scope", "no_such_unit"]);
+    r.refused(&["--vcd-scope", "no_such_unit", "matches no signal"]);
+    assert!(names(d.path()).is_empty(), "{:?}", names(d.path()));
+    // A pattern that matches writes the pair.
+    let r = run_cornell(d.path(), &["--vcd", "w.vcd", "--vcd-scope", "icu"]);
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    assert_eq!(names(d.path()), ["w.gtkw", "w.vcd"]);
+}
+
+#[test]
+fn a_waveform_past_wave_limit_stops_the_run_and_leaves_nothing() {
+    let d = tempfile::tempdir().unwrap();
+    let r = run_cornell(d.path(), &["--vcd", "w.vcd", "--wave-limit", "1K"]);
+    r.refused(&["--wave-limit", "--vcd-window", "--vcd-scope"]);
+    assert!(names(d.path()).is_empty(), "{:?}", names(d.path()));
+    // The default limit (2 GiB) lets the same run write its waveform.
+    let r = run_cornell(d.path(), &["--vcd", "w.vcd"]);
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    assert!(std::fs::metadata(d.path().join("w.vcd")).unwrap().len() > 1024);
+}
+
+#[test]
+fn the_gtkw_names_its_vcd_relative_to_itself() {
+    let a = tempfile::tempdir().unwrap();
+    let b = tempfile::tempdir().unwrap();
+    for d in [a.path(), b.path()] {
+        let r = run_cornell(d, &["--vcd", "sub/w.vcd"]);
+        assert_eq!(r.code, Some(0), "{}", r.shown());
+    }
+    let ga = std::fs::read_to_string(a.path().join("sub/w.gtkw")).unwrap();
+    let gb = std::fs::read_to_string(b.path().join("sub/w.gtkw")).unwrap();
+    assert!(ga.contains("[dumpfile] \"w.vcd\"\n"), "{ga}");
+    assert_eq!(ga, gb, "the save file depends on where it was written");
+}

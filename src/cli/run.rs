@@ -36,6 +36,11 @@ pub struct RunArgs {
     /// as for --vcd.
     #[arg(long, value_name = "FILE", group = "waveform", conflicts_with = "vcd")]
     pub wave: Option<PathBuf>,
+    /// The most bytes a VCD may take (`1G`, `500M`, `1T`; default 2 GiB): a waveform that
+    /// passes it stops the run with an error (exit status 2) and leaves nothing behind —
+    /// narrow it with --vcd-window or --vcd-scope, or raise this.
+    #[arg(long, value_name = "BYTES", default_value = "2G", value_parser = parse_limit)]
+    pub wave_limit: u64,
     /// Only cycles FROM..=TO in the waveform (either side may be left empty); the values
     /// holding at FROM are dumped in full.
     #[arg(long, value_name = "FROM:TO", requires = "waveform", value_parser = Window::parse, visible_alias = "wave-window")]
@@ -54,6 +59,7 @@ pub struct RunArgs {
 /// Runs `shellsim run`.
 pub fn run(a: &RunArgs) -> Result<()> {
     check_outputs(&a.outputs()?)?;
+    crate::machine::vcd::set_wave_limit(a.wave_limit);
     let scene = Scene::load(&a.input.scene)?;
     let mut cfg = config::load(&a.machine.source())?;
     if let Some(b) = a.balance {
@@ -94,22 +100,33 @@ impl RunArgs {
             .iter()
             .map(|p| Output::file("--json", p))
             .collect();
-        if let Some(p) = &self.vcd {
+        let wave = match (&self.vcd, &self.wave) {
+            (Some(p), _) => Some(("--vcd", p)),
+            (None, Some(p)) => Some(("--wave", p)),
+            _ => None,
+        };
+        if let Some((flag, p)) = wave {
             if crate::output::is_stdout(p) {
-                return Err(Error::Usage(
-                    "--vcd -: the VCD needs a file name (its .gtkw is written beside it)".into(),
-                ));
+                return Err(Error::Usage(format!(
+                    "{flag} -: the waveform needs a file name (its .gtkw is written beside it)"
+                )));
             }
-            v.push(Output::file("--vcd", p));
+            v.push(Output::file(flag, p));
             if crate::output::is_file_path(p) {
                 v.push(Output::file(
-                    "--vcd (its .gtkw)",
+                    &format!("{flag} (its .gtkw)"),
                     &crate::machine::gtkw::path_for(p),
                 ));
             }
         }
         Ok(v)
     }
+}
+
+/// A byte count for `--wave-limit`.
+fn parse_limit(s: &str) -> std::result::Result<u64, String> {
+    crate::limits::parse_bytes(s)
+        .ok_or_else(|| format!("{s:?} is not a byte count (e.g. 500M, 2G)"))
 }
 
 /// The waveform line.

@@ -199,6 +199,10 @@ impl<'a> Machine<'a> {
             self.tick(order);
             if let Some(p) = probe.as_deref_mut() {
                 self.probe(p);
+                if p.stop() {
+                    self.cycle += 1;
+                    return Ok(());
+                }
             }
             if self.done() {
                 self.cycle += 1;
