@@ -56,6 +56,7 @@ proptest! {
     #[test]
     fn a_healthy_machine_never_trips_the_watchdog(cfg in config()) {
         cfg.validate().map_err(|e| TestCaseError::fail(e.to_string()))?;
+        cfg.check_watchdog().map_err(|e| TestCaseError::fail(e.to_string()))?;
         let scene = common::load("cornell.json");
         let spec = shellsim::machine::run::RunSpec { source: 1, ..common::spec() };
         let out = run(&scene, Path::new("cornell.json"), &cfg, &spec, None)
@@ -91,7 +92,7 @@ fn a_long_legal_wait_tripped_the_old_watchdog_and_not_the_minimum() {
     c.machine.dda_cycles_per_step = 400;
     c.machine.cycle_jump = false;
     c.machine.watchdog_cycles = 300;
-    assert!(c.validate().is_err(), "validation must refuse it now");
+    assert!(c.check_watchdog().is_err(), "validation must refuse it now");
     let scene = common::load("cornell.json");
     let spec = shellsim::machine::run::RunSpec {
         source: 1,
@@ -104,7 +105,7 @@ fn a_long_legal_wait_tripped_the_old_watchdog_and_not_the_minimum() {
         "{e:?}"
     );
     c.machine.watchdog_cycles = c.longest_wait().0 + 2 * WATCHDOG_SAMPLE_CYCLES;
-    c.validate().unwrap();
+    c.check_watchdog().unwrap();
     let out = run(&scene, Path::new("cornell.json"), &c, &spec, None).unwrap();
     assert_eq!(out.hits, out.reference);
 }

@@ -28,7 +28,7 @@ pub fn run(a: &CheckArgs) -> Result<()> {
     if let Some(out) = &r.json {
         report.write_json(out, cfg)?;
     }
-    report.verdict()
+    report.verdict(r.json.as_deref())
 }
 
 fn print_check(r: &CheckReport) {

@@ -336,11 +336,13 @@ pub fn check_scene(
 }
 
 impl CheckReport {
-    /// `Err(Error::Check)` when some mismatch has no explanation.
-    pub fn verdict(&self) -> Result<()> {
+    /// `Err(Error::Check)` when some mismatch has no explanation; the message points to
+    /// the JSON report `written` only when one was written.
+    pub fn verdict(&self, written: Option<&Path>) -> Result<()> {
         if self.unexplained_mismatches > 0 {
+            let listed = written.map_or(String::new(), |p| format!(" (listed in {})", p.display()));
             return Err(Error::Check(format!(
-                "{} unexplained mismatches (listed in the JSON report)",
+                "{} unexplained mismatches{listed}",
                 self.unexplained_mismatches
             )));
         }

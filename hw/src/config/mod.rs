@@ -55,6 +55,7 @@ impl MachineConfig {
             },
         })?;
         cfg.validate()?;
+        cfg.check_watchdog()?;
         Ok(cfg)
     }
 
@@ -62,7 +63,16 @@ impl MachineConfig {
     pub fn validate(&self) -> Result<(), ConfigError> {
         let f = self.datapath.formats()?;
         self.machine.validate(f.t)?;
-        self.balance.validate(self.machine.ray_buffer_capacity)?;
+        self.balance.validate(self.machine.ray_buffer_capacity)
+    }
+
+    /// Checks that `watchdog_cycles` outlasts the longest legal wait ([`longest_wait`]
+    /// plus twice [`WATCHDOG_SAMPLE_CYCLES`]), so a healthy run is never reported as a
+    /// deadlock; part of parsing a file ([`MachineConfig::from_toml_str`]). A configuration
+    /// built in code may skip it — the watchdog's own test does, to stand in for a deadlock.
+    ///
+    /// [`longest_wait`]: MachineConfig::longest_wait
+    pub fn check_watchdog(&self) -> Result<(), ConfigError> {
         let (min, why) = self.longest_wait();
         let min = min + 2 * WATCHDOG_SAMPLE_CYCLES;
         if self.machine.watchdog_cycles < min {
