@@ -21,6 +21,7 @@ pub mod partition;
 pub mod progress;
 pub mod reference;
 pub mod scene;
+pub mod size;
 
 pub use error::{Error, Result};
 pub use scene::{Aabb, Patch, Scene, Spectrum};

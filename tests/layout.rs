@@ -15,6 +15,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("partition", 3),
     ("machine", 4),
     ("experiment", 5),
+    ("size", 5),
     ("cli", 6),
 ];
 

@@ -11,6 +11,7 @@ pub mod partition;
 pub mod reference;
 pub mod run;
 pub mod scene;
+pub mod size;
 pub mod sweep;
 
 use crate::error::Result;
@@ -49,6 +50,9 @@ pub enum Command {
     Experiment(experiment::ExperimentArgs),
     /// Regenerate every figure of the paper and a report (report.md) in one command.
     Paper(paper::PaperArgs),
+    /// The smallest machine that meets a form-factor accuracy target on a scene (bits,
+    /// buffers, clusters), written as a configuration and a report.
+    Size(size::SizeArgs),
 }
 
 /// Runs the job the command line asks for; errors name the flags the user typed.
@@ -66,6 +70,7 @@ fn dispatch(cli: Cli) -> Result<()> {
         Some(Command::Experiment(a)) => experiment::run(&a),
         Some(Command::Paper(a)) => paper::run(&a),
         Some(Command::Run(a)) => run::run(&a),
+        Some(Command::Size(a)) => size::run(&a),
         None => default::run(),
     }
 }
