@@ -299,6 +299,16 @@ fn classify(
             return Some(Class::Tie);
         }
     }
+    // Near the origin along a patch's normal: the source and a patch nearly parallel to it
+    // lie within a few LSBs of each other (a light set just below a ceiling), so their
+    // quantized planes may swap; a shallow ray then meets the neighbour at t ≈ LSB / |n·d|,
+    // beyond the plain distance test above.
+    for &(id, t) in &involved {
+        let cos = tracer.patches[id as usize].normal.dot(dn).abs();
+        if t * len * cos <= tol.edge_lsb * lsb_c {
+            return Some(Class::NearOrigin);
+        }
+    }
     None
 }
 
