@@ -64,7 +64,7 @@ pub fn parse(text: &str, file: &Path) -> Result<MachineConfig> {
 
 /// Reads and validates the configuration file `path`.
 pub fn from_file(path: &Path) -> Result<MachineConfig> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::unreadable(path, e))?;
+    let text = crate::limits::read_input_string(path)?;
     parse(&text, path)
 }
 

@@ -65,6 +65,23 @@ impl Error {
         Error::input(file, "file", format!("cannot read it: {source}"))
     }
 
+    /// An error about a grid (file [`GRID`]) as one about the scene `file` it was built
+    /// for; any other error unchanged.
+    pub fn for_scene(self, file: &Path) -> Self {
+        match self {
+            Error::Input {
+                file: f,
+                place,
+                what,
+            } if f == Path::new(GRID) => Error::Input {
+                file: file.to_path_buf(),
+                place,
+                what,
+            },
+            e => e,
+        }
+    }
+
     /// The process exit status for this error: 2 for bad input or usage, 1 otherwise.
     pub fn exit_code(&self) -> i32 {
         match self {
@@ -74,4 +91,39 @@ impl Error {
     }
 }
 
+/// The file name of errors about a grid built without its scene's file name at hand
+/// (renamed by [`Error::for_scene`]).
+pub const GRID: &str = "<grid>";
+
 pub type Result<T> = std::result::Result<T, Error>;
+
+/// `text` with control characters escaped (`\u{1b}`, `\t`), so that a name from a file
+/// cannot move the cursor or clear a terminal when printed; line breaks are kept only
+/// when `keep_newlines`.
+pub fn escape_controls(text: &str, keep_newlines: bool) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        if c.is_control() && !(keep_newlines && c == '\n') {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// A name from data as shown in a message: control characters escaped, line breaks too.
+pub fn shown(name: &str) -> String {
+    escape_controls(name, false)
+}
+
+/// A number as a message shows it: short (`1e300`, `-2.5e-12`, not 300 digits), exact
+/// for ordinary values (`0.289`, `4.5`, `100000`).
+pub fn short(v: f64) -> String {
+    let a = v.abs();
+    if v.is_finite() && a != 0.0 && !(1e-4..1e9).contains(&a) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}

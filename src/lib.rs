@@ -4,7 +4,8 @@
 //!
 //! Dependencies point one way (see ARCHITECTURE.md): `cli` → everything, nothing imports
 //! `cli`; `experiment` → `machine`, `partition`, `chart`; `machine` → `fixed`, `partition`,
-//! `reference`; `radiosity` → `machine`, `fixed`, `partition`, `reference`; `fixed`, `partition` → `reference` → `scene`. `error`, `output`, `config`,
+//! `reference`; `radiosity` → `machine`, `fixed`, `partition`, `reference`; `fixed`,
+//! `partition` → `reference` → `scene`. `error`, `output`, `limits`, `config`,
 //! `paper`, `progress` and `chart` are leaves anyone may use.
 
 pub mod chart;
@@ -13,6 +14,7 @@ pub mod config;
 pub mod error;
 pub mod experiment;
 pub mod fixed;
+pub mod limits;
 pub mod machine;
 pub mod output;
 pub mod paper;

@@ -238,7 +238,10 @@ fn two_runs_give_identical_json() {
 
 #[test]
 fn the_watchdog_stops_a_run_that_makes_no_progress() {
-    // A DDA step longer than the watchdog's patience: nothing moves for 1000 cycles.
+    // A DDA step longer than the watchdog's patience: nothing moves for 1000 cycles. A file
+    // with this is refused (`check_watchdog`: the watchdog must outlast the longest legal
+    // wait; tests/watchdog.rs); built in code, it stands in for a real deadlock to test
+    // the report.
     let mut c = config("small");
     c.machine.dda_cycles_per_step = 1000;
     c.machine.watchdog_cycles = 100;

@@ -13,6 +13,11 @@ pub trait Probe {
     /// A fixed-point value (raw bits, signed) with `frac` fractional bits — shown as a
     /// decimal in the viewer through its fixed-point shift.
     fn fixed(&mut self, scope: &str, name: &str, width: u32, frac: u32, raw: i64);
+    /// True when the probe cannot go on (a waveform past its size limit): the machine then
+    /// ends the run early and the caller reports the probe's error.
+    fn stop(&self) -> bool {
+        false
+    }
 }
 
 /// A probe that records nothing (for runs without a waveform).

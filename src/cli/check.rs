@@ -5,6 +5,7 @@ use super::args::DatapathArgs;
 use super::reference::ReferenceArgs;
 use crate::error::Result;
 use crate::fixed::check::{check_scene, CheckReport};
+use crate::output::check_outputs;
 use crate::scene::Scene;
 
 /// Arguments of `shellsim check`.
@@ -19,6 +20,7 @@ pub struct CheckArgs {
 /// Runs `shellsim check`.
 pub fn run(a: &CheckArgs) -> Result<()> {
     let r = &a.rays;
+    check_outputs(&r.outputs())?;
     let scene = Scene::load(&r.scene)?;
     let cfg = a.datapath.resolve()?;
     let report = check_scene(&scene, &r.scene, cfg, &r.spec(), r.grid.for_scene(&scene))?;
@@ -26,22 +28,24 @@ pub fn run(a: &CheckArgs) -> Result<()> {
     if let Some(out) = &r.json {
         report.write_json(out, cfg)?;
     }
-    report.verdict()
+    report.verdict(r.json.as_deref())
 }
 
 fn print_check(r: &CheckReport) {
-    println!("{}: {} rays, {} mismatches", r.format, r.rays, r.mismatches);
-    println!(
+    crate::output::outln!("{}: {} rays, {} mismatches", r.format, r.rays, r.mismatches);
+    crate::output::outln!(
         "  explained: {} overflow, {} near the origin, {} grazing, {} near an edge or vertex, {} tie in t; unexplained: {}",
         r.classes.overflow, r.classes.near_origin, r.classes.grazing, r.classes.near_edge, r.classes.tie, r.unexplained_mismatches
     );
-    println!(
+    crate::output::outln!(
         "  t error: max {:.2} LSB, rms {:.2} LSB; form factors: max error {:.2e} (sampling error {:.2e})",
         r.t_err_max_lsb, r.t_err_rms_lsb, r.ff_err_max, r.ff_sampling_err
     );
     let e = &r.exceptions;
-    println!(
+    crate::output::outln!(
         "  exceptions: {} overflow, {} near-zero denominators, {} t saturated",
-        e.overflow, e.near_zero_denominator, e.t_saturated
+        e.overflow,
+        e.near_zero_denominator,
+        e.t_saturated
     );
 }

@@ -3,10 +3,18 @@
 
 use super::run::print_waveform;
 use crate::error::{Error, Result};
-use crate::machine::default_job::default_job;
+use crate::machine::default_job::{default_job, WAVES_JSON, WAVES_VCD};
+use crate::machine::gtkw::path_for;
+use crate::output::{check_outputs, Output};
+use std::path::Path;
 
 /// Runs the default job and prints the summary table.
 pub fn run() -> Result<()> {
+    check_outputs(&[
+        Output::file("the default job's VCD", Path::new(WAVES_VCD)),
+        Output::file("the default job's .gtkw", &path_for(Path::new(WAVES_VCD))),
+        Output::file("the default job's JSON", Path::new(WAVES_JSON)),
+    ])?;
     let j = default_job()?;
     if let Some(w) = &j.waveform {
         print_waveform(w);
@@ -17,12 +25,14 @@ pub fn run() -> Result<()> {
     let mismatches = j.grid_mismatches;
     let (f, truth, sigma) = (j.analytic.estimate, j.analytic.truth, j.analytic.sigma);
     let source = j.source;
-    println!("shellsim: scene2 (808 patches) from patch {source}, machine hw/configs/paper.toml");
-    println!();
-    println!("{:<46} {:>16} {:>8}", "check", "value", "verdict");
+    crate::output::outln!(
+        "shellsim: scene2 (808 patches) from patch {source}, machine hw/configs/paper.toml"
+    );
+    crate::output::outln!();
+    crate::output::outln!("{:<46} {:>16} {:>8}", "check", "value", "verdict");
     let verdict = |ok: bool| if ok { "ok" } else { "FAILED" };
     let row = |name: &str, value: String, ok: Option<bool>| {
-        println!("{:<46} {:>16} {:>8}", name, value, ok.map_or("", verdict));
+        crate::output::outln!("{:<46} {:>16} {:>8}", name, value, ok.map_or("", verdict));
     };
     row("machine: rays", m.rays.to_string(), None);
     row("machine: cycles", m.cycles.to_string(), None);
@@ -82,8 +92,8 @@ pub fn run() -> Result<()> {
         Some((f - truth).abs() <= 3.0 * sigma),
     );
     row("  analytic (Lambert)", format!("{truth:.10}"), None);
-    println!();
-    println!(
+    crate::output::outln!();
+    crate::output::outln!(
         "waveform: gtkwave waves/default.vcd waves/default.gtkw; statistics: waves/default.json ({:.2} M simulated cycles/s)",
         m.sim_rate_hz / 1e6
     );

@@ -3,8 +3,9 @@
 use super::args::{MachineArgs, SceneSourceArgs};
 use crate::config;
 use crate::error::Result;
-use crate::experiment::outputs::{experiment, Which};
+use crate::experiment::outputs::{self, experiment, Which};
 use crate::experiment::Workload;
+use crate::output::{check_outputs, Output};
 use crate::scene::Scene;
 use std::path::PathBuf;
 
@@ -26,6 +27,12 @@ pub struct ExperimentArgs {
 /// Runs `shellsim experiment`.
 pub fn run(a: &ExperimentArgs) -> Result<()> {
     let scene = Scene::load(&a.input.scene)?;
+    let stem = outputs::stem_of_scene(a.which, &scene);
+    check_outputs(&[
+        Output::dir("--out", &a.out),
+        Output::file("--out", &a.out.join(format!("{stem}.csv"))),
+        Output::file("--out", &a.out.join(format!("{stem}.svg"))),
+    ])?;
     let base = config::load(&a.machine.source())?;
     let w = Workload {
         scene: &scene,
@@ -34,8 +41,8 @@ pub fn run(a: &ExperimentArgs) -> Result<()> {
         base: &base,
     };
     let out = experiment(a.which, &w)?;
-    print!("{}", out.summary);
+    crate::output::out!("{}", out.summary);
     out.write(&a.out)?;
-    println!("wrote {}/{}.csv and .svg", a.out.display(), out.stem);
+    crate::output::outln!("wrote {}/{}.csv and .svg", a.out.display(), out.stem);
     Ok(())
 }

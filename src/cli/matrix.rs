@@ -4,6 +4,7 @@
 use super::args::{MatrixRaysArgs, SceneFileArg};
 use crate::config;
 use crate::error::Result;
+use crate::output::{check_outputs, outln, Output};
 use crate::radiosity::matrix::{self, Model, Summary};
 use crate::scene::Scene;
 use std::path::PathBuf;
@@ -25,6 +26,10 @@ pub struct MatrixArgs {
 
 /// Runs `shellsim matrix`.
 pub fn run(a: &MatrixArgs) -> Result<()> {
+    check_outputs(&[
+        Output::file("--out", &a.out),
+        Output::file("--out", &a.out.with_extension("json")),
+    ])?;
     let scene = Scene::load(&a.scene.scene)?;
     let cfg = config::load(&a.rays.machine.source())?;
     let spec = a.rays.spec(a.model, scene.patches.len())?;
@@ -33,7 +38,7 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
     let wall = start.elapsed().as_secs_f64();
     let summary = Summary::new(&m, &spec, &cfg, a.rays.clock_mhz);
     matrix::write(&a.out, &m, &summary)?;
-    println!(
+    outln!(
         "{}: {} model, {} rows × {} rays, {} nonzeros, max |row sum − 1| {:.3e}, max escaped {:.3e}, {:.2} s wall",
         summary.scene,
         spec.model.name(),
@@ -45,12 +50,12 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
         wall
     );
     if let Some(t) = &summary.machine {
-        println!(
+        outln!(
             "machine: {} cycles = {:.4} s at {} MHz, pipeline efficiency {:.3}, {} patch loads, {} mismatches vs fixed",
             t.cycles, t.time_s, t.clock_mhz, t.pipeline_efficiency, t.patch_loads, t.mismatches_vs_fixed
         );
     }
-    println!(
+    outln!(
         "wrote {} and {}",
         a.out.display(),
         matrix::summary_path(&a.out).display()

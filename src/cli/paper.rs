@@ -13,9 +13,10 @@ pub struct PaperArgs {
 
 /// Runs `shellsim paper`.
 pub fn run(a: &PaperArgs) -> Result<()> {
+    crate::output::check_outputs(&[crate::output::Output::dir("--out", &a.out)])?;
     let start = std::time::Instant::now();
     crate::experiment::report::paper(&a.out)?;
-    println!(
+    crate::output::outln!(
         "wrote {}/report.md ({:.0} s)",
         a.out.display(),
         start.elapsed().as_secs_f64()

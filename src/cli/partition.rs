@@ -3,7 +3,7 @@
 
 use super::args::CellArg;
 use crate::error::Result;
-use crate::output::write_atomic;
+use crate::output::{check_outputs, write_atomic, Output};
 use crate::paper::PAPER_RAYS;
 use crate::partition::angles::parse_subregions;
 use crate::partition::figures::{figures, workload_figure};
@@ -76,8 +76,18 @@ pub struct PartitionArgs {
 /// Runs `shellsim partition`.
 pub fn run(a: &PartitionArgs) -> Result<()> {
     if let Some(dir) = &a.figures {
+        check_outputs(&[Output::dir("--figures", dir)])?;
         return figures(dir);
     }
+    let outputs: Vec<Output> = [
+        ("--json", &a.json),
+        ("--svg", &a.svg),
+        ("--schedule", &a.schedule),
+    ]
+    .into_iter()
+    .filter_map(|(o, p)| p.as_deref().map(|p| Output::file(o, p)))
+    .collect();
+    check_outputs(&outputs)?;
     let file = a.scene.as_deref().expect("clap requires --scene");
     let scene = Scene::load(file)?;
     let cfg = Config {
@@ -99,13 +109,13 @@ pub fn run(a: &PartitionArgs) -> Result<()> {
         cell_size: a.grid.for_scene(&scene),
     };
     cfg.validate(&scene, file)?;
-    let tracer = Tracer::new(&scene, cfg.cell_size)?;
+    let tracer = Tracer::new(&scene, cfg.cell_size).map_err(|e| e.for_scene(file))?;
     let start = Instant::now();
     let p = partition(&scene, &tracer, &cfg);
     let wall = start.elapsed().as_secs_f64();
     let report = Report::new(&p);
     report.print();
-    println!("({wall:.2} s)");
+    crate::output::outln!("({wall:.2} s)");
     if let Some(out) = &a.json {
         write_atomic(out, report.to_json().as_bytes())?;
     }

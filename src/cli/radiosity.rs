@@ -4,6 +4,7 @@
 use super::args::{MatrixRaysArgs, SceneFileArg};
 use crate::config;
 use crate::error::{Error, Result};
+use crate::output::{check_outputs, outln, Output};
 use crate::radiosity::job::{self, ImageSpec, JobSpec};
 use crate::radiosity::matrix::Model;
 use crate::radiosity::render::{Camera, Shading};
@@ -85,6 +86,7 @@ fn parse_compare(s: &str) -> Result<(Model, Model)> {
 
 /// Runs `shellsim radiosity`.
 pub fn run(a: &RadiosityArgs) -> Result<()> {
+    check_outputs(&[Output::dir("--out", &a.out)])?;
     let scene = Scene::load(&a.scene.scene)?;
     let camera = match &a.camera {
         Some(s) => Camera::parse(s).map_err(|w| Error::Usage(format!("--camera {s:?}: {w}")))?,
@@ -113,24 +115,26 @@ pub fn run(a: &RadiosityArgs) -> Result<()> {
     let r = job::run(&scene, &a.scene.scene, &cfg, &job, &a.out, true)?;
     for s in &r.solutions {
         let e = &s.energy;
-        println!(
+        outln!(
             "{}: {} {:?}, {} iterations, residual {:.2e}; energy: emitted {:.6}, absorbed {:.6}, escaped {:.6}, on back sides {:.6}, imbalance {:+.3e}",
             r.scene, s.model.name(), r.method, s.iterations, s.residual, e.emitted, e.absorbed, e.escaped, e.back, e.imbalance
         );
         if let Some(t) = &s.machine {
-            println!(
+            outln!(
                 "  machine: {} cycles for the whole matrix = {:.4} s at {} MHz",
-                t.cycles, t.time_s, t.clock_mhz
+                t.cycles,
+                t.time_s,
+                t.clock_mhz
             );
         }
     }
     if let Some(c) = &r.comparison {
-        println!(
+        outln!(
             "{} vs {}: max relative difference {:.3e} (patch {}), RMS {:.3e}; float noise (RMS) {:.3e}: max {:.3} and RMS {:.3} noise units",
             c.model, c.reference, c.max_rel, c.max_rel_patch, c.rms_rel, c.noise_rms_rel, c.max_in_noise_units, c.rms_in_noise_units
         );
     }
-    println!("wrote {}", a.out.display());
+    outln!("wrote {}", a.out.display());
     if let Some(s) = r.solutions.iter().find(|s| !s.converged) {
         return Err(Error::Check(format!(
             "{} did not converge to {} in {} iterations (residual {:.3e})",

@@ -2,7 +2,7 @@
 
 use super::args::CellArg;
 use crate::error::Result;
-use crate::output::write_json;
+use crate::output::{check_outputs, write_json, Output};
 use crate::paper::PAPER_RAYS;
 use crate::reference::cast::{self, ReferenceReport};
 use crate::reference::rays::{Directions, RaySpec};
@@ -29,12 +29,20 @@ pub struct ReferenceArgs {
     pub seed: u64,
     #[command(flatten)]
     pub grid: CellArg,
-    /// Write the full result as JSON here.
+    /// Write the full result as JSON here (`-`: standard output).
     #[arg(long)]
     pub json: Option<PathBuf>,
 }
 
 impl ReferenceArgs {
+    /// The outputs asked for, for the check before any work.
+    pub fn outputs(&self) -> Vec<Output> {
+        self.json
+            .iter()
+            .map(|p| Output::file("--json", p))
+            .collect()
+    }
+
     /// The rays asked for.
     pub fn spec(&self) -> RaySpec {
         RaySpec {
@@ -48,6 +56,7 @@ impl ReferenceArgs {
 
 /// Runs `shellsim reference`.
 pub fn run(a: &ReferenceArgs) -> Result<()> {
+    check_outputs(&a.outputs())?;
     let scene = Scene::load(&a.scene)?;
     let report = cast::run_scene(&scene, &a.scene, &a.spec(), a.grid.for_scene(&scene))?;
     print_reference(&report, &scene);
@@ -58,11 +67,16 @@ pub fn run(a: &ReferenceArgs) -> Result<()> {
 }
 
 fn print_reference(r: &ReferenceReport, scene: &Scene) {
-    println!(
+    crate::output::outln!(
         "{} from patch {}: {} {:?} rays, {} escaped, ΣF = {:.12}",
-        r.scene, r.source, r.rays, r.directions, r.escaped, r.weight_sum
+        r.scene,
+        r.source,
+        r.rays,
+        r.directions,
+        r.escaped,
+        r.weight_sum
     );
-    println!(
+    crate::output::outln!(
         "{:.3} s, {:.3} M rays/s, {:.1} cells and {:.1} patch tests per ray",
         r.wall_s,
         r.rays_per_s / 1e6,
@@ -71,9 +85,9 @@ fn print_reference(r: &ReferenceReport, scene: &Scene) {
     );
     let mut top = r.form_factors.clone();
     top.sort_by(|a, b| b.value.total_cmp(&a.value).then(a.patch.cmp(&b.patch)));
-    println!("{:>8}  {:>12}  {:>10}", "patch", "F", "area");
+    crate::output::outln!("{:>8}  {:>12}  {:>10}", "patch", "F", "area");
     for f in top.iter().take(10) {
-        println!(
+        crate::output::outln!(
             "{:>8}  {:>12.8}  {:>10.6}",
             f.patch,
             f.value,
@@ -81,6 +95,6 @@ fn print_reference(r: &ReferenceReport, scene: &Scene) {
         );
     }
     if top.len() > 10 {
-        println!("{:>8}  ({} more patches hit)", "…", top.len() - 10);
+        crate::output::outln!("{:>8}  ({} more patches hit)", "…", top.len() - 10);
     }
 }

@@ -3,9 +3,10 @@
 
 use super::args::{MachineArgs, OnOff, SceneSourceArgs};
 use crate::config;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::machine::run::{execute, RunSpec, Waveform};
 use crate::machine::vcd::{ScopeFilter, VcdOptions, Window};
+use crate::output::{check_outputs, Output};
 use crate::scene::Scene;
 use std::path::PathBuf;
 
@@ -19,7 +20,8 @@ pub struct RunArgs {
     /// Hi_Low_Ratio: the machine casts ratio × 969 rays.
     #[arg(long, default_value_t = 10)]
     pub ratio: usize,
-    /// Write the statistics (and the resolved configuration) as JSON here.
+    /// Write the statistics (and the resolved configuration) as JSON here (`-`: standard
+    /// output).
     #[arg(long)]
     pub json: Option<PathBuf>,
     /// Dynamic workload balancing: overrides the configuration's [balance] enabled.
@@ -34,6 +36,11 @@ pub struct RunArgs {
     /// as for --vcd.
     #[arg(long, value_name = "FILE", group = "waveform", conflicts_with = "vcd")]
     pub wave: Option<PathBuf>,
+    /// The most bytes a VCD may take (`1G`, `500M`, `1T`; default 2 GiB): a waveform that
+    /// passes it stops the run with an error (exit status 2) and leaves nothing behind —
+    /// narrow it with --vcd-window or --vcd-scope, or raise this.
+    #[arg(long, value_name = "BYTES", default_value = "2G", value_parser = parse_limit)]
+    pub wave_limit: u64,
     /// Only cycles FROM..=TO in the waveform (either side may be left empty); the values
     /// holding at FROM are dumped in full.
     #[arg(long, value_name = "FROM:TO", requires = "waveform", value_parser = Window::parse, visible_alias = "wave-window")]
@@ -51,6 +58,8 @@ pub struct RunArgs {
 
 /// Runs `shellsim run`.
 pub fn run(a: &RunArgs) -> Result<()> {
+    check_outputs(&a.outputs()?)?;
+    crate::machine::vcd::set_wave_limit(a.wave_limit);
     let scene = Scene::load(&a.input.scene)?;
     let mut cfg = config::load(&a.machine.source())?;
     if let Some(b) = a.balance {
@@ -75,16 +84,54 @@ pub fn run(a: &RunArgs) -> Result<()> {
         print_waveform(w);
     }
     let s = &out.stats;
-    println!(
+    crate::output::outln!(
         "{}: {} rays, {} cycles, pipeline efficiency {:.3}, {} patch loads, {} jobs, {} mismatches vs fixed, {:.2} M cycles/s",
         s.scene, s.rays, s.cycles, s.pipeline_efficiency, s.patch_loads, s.jobs, s.mismatches_vs_fixed, s.sim_rate_hz / 1e6
     );
     s.verdict()
 }
 
+impl RunArgs {
+    /// The outputs asked for (the .gtkw beside the VCD among them), for the check before
+    /// any work; a VCD on standard output is a usage error (its .gtkw needs a directory).
+    pub fn outputs(&self) -> Result<Vec<Output>> {
+        let mut v: Vec<Output> = self
+            .json
+            .iter()
+            .map(|p| Output::file("--json", p))
+            .collect();
+        let wave = match (&self.vcd, &self.wave) {
+            (Some(p), _) => Some(("--vcd", p)),
+            (None, Some(p)) => Some(("--wave", p)),
+            _ => None,
+        };
+        if let Some((flag, p)) = wave {
+            if crate::output::is_stdout(p) {
+                return Err(Error::Usage(format!(
+                    "{flag} -: the waveform needs a file name (its .gtkw is written beside it)"
+                )));
+            }
+            v.push(Output::file(flag, p));
+            if crate::output::is_file_path(p) {
+                v.push(Output::file(
+                    &format!("{flag} (its .gtkw)"),
+                    &crate::machine::gtkw::path_for(p),
+                ));
+            }
+        }
+        Ok(v)
+    }
+}
+
+/// A byte count for `--wave-limit`.
+fn parse_limit(s: &str) -> std::result::Result<u64, String> {
+    crate::limits::parse_bytes(s)
+        .ok_or_else(|| format!("{s:?} is not a byte count (e.g. 500M, 2G)"))
+}
+
 /// The waveform line.
 pub fn print_waveform(w: &Waveform) {
-    println!(
+    crate::output::outln!(
         "waveform: {} ({} signals, {} bytes) and {}",
         w.vcd.display(),
         w.signals,

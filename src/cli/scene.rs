@@ -2,6 +2,7 @@
 
 use super::args::CellArg;
 use crate::error::Result;
+use crate::output::{check_outputs, Output};
 use crate::reference::tracer::Tracer;
 use crate::scene::{gen, obj, Aabb, Scene};
 use clap::Subcommand;
@@ -17,7 +18,7 @@ pub enum SceneCmd {
         /// Seed of the random parts.
         #[arg(long, default_value_t = gen::DEFAULT_SEED)]
         seed: u64,
-        /// Output file (JSON).
+        /// Output file (JSON; `-` for standard output).
         #[arg(short, long)]
         out: PathBuf,
     },
@@ -26,7 +27,7 @@ pub enum SceneCmd {
     Import {
         /// The OBJ file.
         file: PathBuf,
-        /// Output file (JSON).
+        /// Output file (JSON; `-` for standard output).
         #[arg(short, long)]
         out: PathBuf,
         /// Scene bounds as lo_x,lo_y,lo_z,hi_x,hi_y,hi_z (default: the vertices' bounding box).
@@ -51,10 +52,11 @@ pub fn run(c: SceneCmd) -> Result<()> {
     match c {
         SceneCmd::Info { file, grid } => info(&file, grid),
         SceneCmd::Gen { kind, seed, out } => {
+            check_outputs(&[Output::file("--out", &out)])?;
             let scene = gen::generate(kind, seed);
             scene.validate(&out)?;
             scene.save_json(&out)?;
-            println!(
+            crate::output::outln!(
                 "{}: {} patches (seed {seed}) written to {}",
                 kind.name(),
                 scene.patches.len(),
@@ -68,6 +70,7 @@ pub fn run(c: SceneCmd) -> Result<()> {
             bounds,
             reflectance,
         } => {
+            check_outputs(&[Output::file("--out", &out)])?;
             let opts = obj::ImportOptions {
                 bounds,
                 reflectance,
@@ -75,11 +78,11 @@ pub fn run(c: SceneCmd) -> Result<()> {
             };
             let (scene, report) = obj::import(&file, &opts)?;
             for w in &report.warnings {
-                eprintln!("warning: {w}");
+                eprintln!("warning: {}", crate::error::shown(w));
             }
             scene.save_json(&out)?;
-            println!("{}: {}", file.display(), report.summary());
-            println!("written to {}", out.display());
+            crate::output::outln!("{}: {}", file.display(), report.summary());
+            crate::output::outln!("written to {}", out.display());
             Ok(())
         }
     }
@@ -102,7 +105,7 @@ fn parse_bounds(s: &str) -> std::result::Result<Aabb, String> {
 
 fn info(file: &Path, grid: CellArg) -> Result<()> {
     let scene = Scene::load(file)?;
-    let tracer = Tracer::new(&scene, grid.for_scene(&scene))?;
+    let tracer = Tracer::new(&scene, grid.for_scene(&scene)).map_err(|e| e.for_scene(file))?;
     let g = &tracer.grid;
     let tris = scene
         .patches
@@ -114,21 +117,21 @@ fn info(file: &Path, grid: CellArg) -> Result<()> {
         .iter()
         .filter(|p| p.emission.is_nonzero())
         .count();
-    println!("scene        {}", scene.name);
-    println!(
+    crate::output::outln!("scene        {}", crate::error::shown(&scene.name));
+    crate::output::outln!(
         "bounds       {:?} - {:?}",
         scene.bounds.lo.to_array(),
         scene.bounds.hi.to_array()
     );
-    println!(
+    crate::output::outln!(
         "patches      {} ({} triangles, {} quads, {} emitting)",
         scene.patches.len(),
         tris,
         scene.patches.len() - tris,
         emitters
     );
-    println!("total area   {:.6}", scene.total_area());
-    println!(
+    crate::output::outln!("total area   {:.6}", scene.total_area());
+    crate::output::outln!(
         "grid         {}×{}×{} cells of {}, {} nonempty, {} cell entries ({:.2} per patch)",
         g.dims[0],
         g.dims[1],

@@ -4,7 +4,7 @@
 use super::args::{MachineArgs, SceneSourceArgs};
 use crate::config;
 use crate::error::{Error, Result};
-use crate::output::{write_atomic, write_json};
+use crate::output::{check_outputs, write_atomic, write_json, Output};
 use crate::paper::PAPER_RAYS;
 use crate::scene::Scene;
 use crate::size::{markdown, size, toml, Against, SizeSpec};
@@ -45,6 +45,12 @@ pub struct SizeArgs {
 
 /// Runs `shellsim size`.
 pub fn run(a: &SizeArgs) -> Result<()> {
+    if let Some(dir) = &a.out {
+        let files = ["machine.toml", "size.md", "size.json"];
+        let mut outs = vec![Output::dir("--out", dir)];
+        outs.extend(files.iter().map(|f| Output::file("--out", &dir.join(f))));
+        check_outputs(&outs)?;
+    }
     let scene = Scene::load(&a.input.scene)?;
     let base = config::load(&a.machine.source())?;
     let ratio = match a.rays {
@@ -73,14 +79,10 @@ pub fn run(a: &SizeArgs) -> Result<()> {
     let r = size(&scene, &a.input.scene, &base, &spec)?;
     let md = markdown(&r);
     if let Some(dir) = &a.out {
-        std::fs::create_dir_all(dir).map_err(|e| Error::Io {
-            file: dir.clone(),
-            source: e,
-        })?;
         write_atomic(&dir.join("machine.toml"), toml(&r).as_bytes())?;
         write_atomic(&dir.join("size.md"), md.as_bytes())?;
         write_json(&dir.join("size.json"), &r)?;
     }
-    print!("{md}");
+    crate::output::out!("{md}");
     Ok(())
 }

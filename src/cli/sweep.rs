@@ -3,6 +3,7 @@
 use super::args::{DatapathArgs, SceneSourceArgs};
 use crate::error::{Error, Result};
 use crate::fixed::sweep;
+use crate::output::{check_outputs, file_stem, Output};
 use crate::reference::rays::{Directions, RaySpec};
 use crate::scene::Scene;
 use clap::Subcommand;
@@ -59,7 +60,31 @@ pub fn run(c: &SweepCmd) -> Result<()> {
             a.from, a.to
         )));
     }
+    let stem = format!("bits-{}", file_stem(&scene.name));
+    check_outputs(&[
+        Output::dir("--out", &a.out),
+        Output::file("--out", &a.out.join(format!("{stem}.csv"))),
+        Output::file("--out", &a.out.join(format!("{stem}.svg"))),
+    ])?;
     let cfg = a.datapath.resolve_config()?;
+    // Every width of the sweep must make a datapath; the error names the flag that asked
+    // for the width (--from for the first, --to for a wider one).
+    for b in a.from..=a.to {
+        let mut d = cfg.datapath;
+        d.frac_bits = b;
+        d.t_frac_bits = b;
+        if let Err(e) = d.formats() {
+            let (flag, v) = if b == a.from {
+                ("--from", a.from)
+            } else {
+                ("--to", a.to)
+            };
+            return Err(Error::Usage(format!(
+                "{flag} {v}: {b} fractional bits make no datapath: {}: {}",
+                e.key, e.what
+            )));
+        }
+    }
     let rows = sweep::sweep_scene(
         &scene,
         file,
@@ -68,12 +93,17 @@ pub fn run(c: &SweepCmd) -> Result<()> {
         crate::config::cell_size(cfg.machine.cell_size, scene.bounds.scale()),
         a.from..=a.to,
     )?;
-    println!(
+    crate::output::outln!(
         "{:>4} {:>10} {:>12} {:>12} {:>11} {:>8}",
-        "F", "mismatches", "ff_err_max", "sampling", "mult bits", "unexpl."
+        "F",
+        "mismatches",
+        "ff_err_max",
+        "sampling",
+        "mult bits",
+        "unexpl."
     );
     for r in &rows {
-        println!(
+        crate::output::outln!(
             "{:>4} {:>10} {:>12.3e} {:>12.3e} {:>11} {:>8}",
             r.frac_bits,
             r.report.mismatches,
@@ -85,14 +115,17 @@ pub fn run(c: &SweepCmd) -> Result<()> {
     }
     match sweep::recommended(&rows) {
         Some(b) => {
-            println!("fewest bits whose form-factor error stays under the sampling error: {b}")
+            crate::output::outln!(
+                "fewest bits whose form-factor error stays under the sampling error: {b}"
+            )
         }
         None => {
-            println!("no width in the sweep keeps the form-factor error under the sampling error")
+            crate::output::outln!(
+                "no width in the sweep keeps the form-factor error under the sampling error"
+            )
         }
     }
-    let stem = format!("bits-{}", scene.name);
     sweep::write(&a.out, &stem, &rows, &sweep::title(&scene, &spec))?;
-    println!("wrote {}/{stem}.csv and .svg", a.out.display());
+    crate::output::outln!("wrote {}/{stem}.csv and .svg", a.out.display());
     Ok(())
 }

@@ -518,15 +518,7 @@ pub fn speedup_csv(rows: &[SpeedupRow]) -> String {
 
 /// A file-name-safe form of a scene name.
 pub fn stem(name: &str) -> String {
-    name.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
+    crate::output::file_stem(name)
 }
 
 impl Point {

@@ -62,7 +62,13 @@ pub fn experiment(which: Which, w: &Workload) -> Result<Outputs> {
 }
 
 fn stem_of(which: Which, w: &Workload) -> String {
-    format!("{}-{}", which.name(), stem(&w.scene.name))
+    stem_of_scene(which, w.scene)
+}
+
+/// The output files' stem of experiment `which` on `scene`: `WHICH-SCENE`, the scene's
+/// name made file-name safe.
+pub fn stem_of_scene(which: Which, scene: &crate::scene::Scene) -> String {
+    format!("{}-{}", which.name(), stem(&scene.name))
 }
 
 /// CSV, SVG and summary of the efficiency experiment's points.

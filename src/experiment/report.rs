@@ -158,7 +158,7 @@ pub fn paper(dir: &Path) -> Result<PaperResults> {
         speedup_outputs(&w2, &speedup)?,
     ];
     for o in &outs {
-        print!("{}", o.summary);
+        crate::output::out!("{}", o.summary);
         o.write(dir)?;
     }
     let r = PaperResults {

@@ -312,6 +312,21 @@ fn classify(
     None
 }
 
+/// Refuses a ray count whose float and fixed-point rays and results cannot fit the memory
+/// limit (`crate::limits`), before anything is allocated.
+pub fn check_memory(spec: &RaySpec) -> Result<()> {
+    let per_ray = crate::reference::rays::ray_bytes()
+        + std::mem::size_of::<shellsim_hw::RayRecord>() as u64
+        + 2 * std::mem::size_of::<Option<shellsim_hw::FixedHit>>() as u64
+        + 64;
+    crate::limits::check_memory(
+        "rays",
+        &spec.rays.to_string(),
+        "the float and fixed-point rays and their results",
+        spec.rays as u64 * per_ray,
+    )
+}
+
 /// The `check` job: checks `spec` against `scene` (read from `file`), builds the float
 /// tracer and the fixed-point scene on cells of `cell` with `datapath`, and compares them
 /// on the rays with the default tolerances.
@@ -323,18 +338,21 @@ pub fn check_scene(
     cell: f64,
 ) -> Result<CheckReport> {
     spec.validate(scene, file)?;
-    let tracer = Tracer::new(scene, cell)?;
+    check_memory(spec)?;
+    let tracer = Tracer::new(scene, cell).map_err(|e| e.for_scene(file))?;
     let host = HostFixed::new(scene, file, datapath, cell)?;
     let set = spec.rays(scene);
     Ok(check(&tracer, &host, &set, spec.source, Default::default()))
 }
 
 impl CheckReport {
-    /// `Err(Error::Check)` when some mismatch has no explanation.
-    pub fn verdict(&self) -> Result<()> {
+    /// `Err(Error::Check)` when some mismatch has no explanation; the message points to
+    /// the JSON report `written` only when one was written.
+    pub fn verdict(&self, written: Option<&Path>) -> Result<()> {
         if self.unexplained_mismatches > 0 {
+            let listed = written.map_or(String::new(), |p| format!(" (listed in {})", p.display()));
             return Err(Error::Check(format!(
-                "{} unexplained mismatches (listed in the JSON report)",
+                "{} unexplained mismatches{listed}",
                 self.unexplained_mismatches
             )));
         }

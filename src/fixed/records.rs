@@ -161,12 +161,16 @@ fn cell_table(
     cfg: &DatapathConfig,
     cell: f64,
 ) -> Result<CellTable> {
-    let here = Path::new("<grid>");
+    let here = file;
     let cell_raw = f.coord.quantize(cell).filter(|&c| c > 0).ok_or_else(|| {
         Error::input(
             here,
             "cell size",
-            format!("{cell} is not a positive coordinate in {}", f.coord),
+            format!(
+                "{} is not a positive coordinate in {}",
+                crate::error::short(cell),
+                f.coord
+            ),
         )
     })?;
     let ext = scene.bounds.extent() / scene.bounds.scale();
@@ -176,7 +180,11 @@ fn cell_table(
             Error::input(
                 file,
                 "bounds",
-                format!("extent {} does not fit {}", ext[a], f.coord),
+                format!(
+                    "extent {} does not fit {}",
+                    crate::error::short(ext[a]),
+                    f.coord
+                ),
             )
         })?;
         let n = (e + cell_raw - 1) / cell_raw;

@@ -147,7 +147,8 @@ pub fn sweep_scene(
     bits: std::ops::RangeInclusive<u32>,
 ) -> Result<Vec<BitsRow>> {
     spec.validate(scene, file)?;
-    let tracer = Tracer::new(scene, cell)?;
+    crate::fixed::check::check_memory(spec)?;
+    let tracer = Tracer::new(scene, cell).map_err(|e| e.for_scene(file))?;
     let set = spec.rays(scene);
     let input = SweepInput {
         scene,

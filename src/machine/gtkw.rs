@@ -336,9 +336,12 @@ fn units(out: &mut Out, signals: &[Signal]) {
 
 /// Writes the save file for a finished waveform to `gtkw_path` (atomically).
 pub fn write(gtkw_path: &Path, wave: &VcdSummary) -> Result<()> {
+    // Both by name only: the pair lies in one directory, so a moved pair still opens and
+    // the file does not depend on where it was written.
+    let name = |p: &Path| PathBuf::from(p.file_name().unwrap_or(p.as_os_str()));
     let text = render_wave(
-        &wave.path,
-        gtkw_path,
+        &name(&wave.path),
+        &name(gtkw_path),
         &wave.signals,
         wave.window.from,
         WaveFormat::of(&wave.path),

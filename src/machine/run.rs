@@ -99,7 +99,7 @@ pub fn prepare(
     let cfg = &config::resolve(cfg, scene.bounds.scale())?;
     let m = &cfg.machine;
     let cell = m.cell_size.value();
-    let tracer = Tracer::new(scene, cell)?;
+    let tracer = Tracer::new(scene, cell).map_err(|e| e.for_scene(file))?;
     let mut pcfg = PartitionConfig::paper(
         spec.source,
         m.clusters as usize,
@@ -109,7 +109,8 @@ pub fn prepare(
     pcfg.shell_radius = m.shell_radius.value();
     pcfg.subshell_max = m.subshell_max_patches as usize;
     pcfg.cell_size = cell;
-    pcfg.validate(scene, file)?;
+    pcfg.validate(scene, file)
+        .map_err(|e| config_param(e, file))?;
     let part = partition::partition(scene, &tracer, &pcfg);
     let host = HostFixed::new(scene, file, cfg.datapath, cell)?;
     let records: Vec<RayRecord> = part
@@ -189,6 +190,11 @@ pub fn simulate(
     } = *input;
     let start = std::time::Instant::now();
     let hw = config::in_hardware_units(cfg, host.scale)?;
+    crate::limits::check_machine_memory(Machine::memory_estimate(
+        &hw,
+        host.scene.patches.len(),
+        records.len(),
+    ))?;
     let mut machine = Machine::new(hw, &host.scene, records, sectors, spec.source);
     machine
         .run(spec.order, probe)
@@ -258,6 +264,28 @@ pub fn simulate(
         hits,
         reference,
     })
+}
+
+/// A partition parameter that came from the machine configuration, named by its key there
+/// (`machine.shell_radius`) against the scene `file` — never by a flag `run` does not have.
+fn config_param(e: Error, file: &Path) -> Error {
+    let key = match &e {
+        Error::Param { key, .. } => match key.as_str() {
+            "sections" => "machine.clusters",
+            "ctus" => "machine.ctus_per_cluster",
+            "shell_radius" => "machine.shell_radius",
+            "subshell_max" => "machine.subshell_max_patches",
+            "cell_size" => "machine.cell_size",
+            _ => return e,
+        },
+        _ => return e,
+    };
+    match e {
+        Error::Param { what, .. } => {
+            Error::input(file, format!("{key} of the machine configuration"), what)
+        }
+        e => e,
+    }
 }
 
 fn ratio(a: u64, b: u64) -> f64 {
@@ -332,7 +360,10 @@ pub fn execute(
         Some(w) => {
             let summary = w.finish()?;
             let gtkw = crate::machine::gtkw::path_for(&summary.path);
-            crate::machine::gtkw::write(&gtkw, &summary)?;
+            // A VCD streamed to a device or FIFO has no directory to put a save file in.
+            if crate::output::is_file_path(&summary.path) {
+                crate::machine::gtkw::write(&gtkw, &summary)?;
+            }
             Some(Waveform {
                 vcd: summary.path.clone(),
                 signals: summary.signals.len(),

@@ -318,6 +318,11 @@ pub struct VcdWriter {
     timestamps: u64,
     /// The first error; later calls do nothing and `finish` reports it.
     error: Option<String>,
+    /// A usage error found while writing (a scope filter matching nothing, the size limit
+    /// passed): reported as exit status 2, and the run stops early (`Probe::stop`).
+    usage: Option<String>,
+    /// The VCD's size limit in bytes (see [`set_wave_limit`]).
+    limit: u64,
     scratch: String,
 }
 
@@ -364,6 +369,8 @@ impl VcdWriter {
             fast: false,
             timestamps: 0,
             error: None,
+            usage: None,
+            limit: WAVE_LIMIT.load(std::sync::atomic::Ordering::Relaxed),
             scratch: String::new(),
         })
     }
@@ -378,6 +385,10 @@ impl VcdWriter {
                 self.fail(format!("writing: {e}"));
             }
         }
+        if let Some(u) = self.usage.take() {
+            // Dropping `self` removes the temporary file.
+            return Err(Error::Usage(u));
+        }
         if let Some(e) = self.error.take() {
             // Dropping `self` removes the temporary file.
             return Err(Error::Check(format!("{}: {e}", self.path.display())));
@@ -386,14 +397,14 @@ impl VcdWriter {
             (Some(mut w), _) => (|| -> io::Result<u64> {
                 w.flush()?;
                 let f = w.writer().get_ref();
-                f.sync_all()?;
+                crate::output::sync_file(f)?;
                 f.metadata().map(|m| m.len())
             })(),
             (None, Some(Fst::Body(b))) => (|| -> io::Result<u64> {
                 let mut w = b.finish().map_err(fst_err)?;
                 w.flush()?;
                 let f = w.get_ref();
-                f.sync_all()?;
+                crate::output::sync_file(f)?;
                 f.metadata().map(|m| m.len())
             })(),
             _ => unreachable!("finish runs once, after the header"),
@@ -530,6 +541,14 @@ impl VcdWriter {
                     .is_none_or(|f| f.matches(&self.slots[i].scope))
             })
             .collect();
+        if let (Some(f), true) = (&filter, keep.is_empty() && !self.slots.is_empty()) {
+            let msg = format!(
+                "--vcd-scope {:?} matches no signal (scopes look like machine.memory.arbiter, machine.cluster_0.icu.stage_0, machine.cluster_0.ctu_0); nothing written",
+                crate::error::shown(&f.pattern)
+            );
+            self.usage = Some(msg.clone());
+            return Err(io::Error::other(msg));
+        }
         // The scope tree, each level's children in first-seen order.
         let mut root = ScopeNode::default();
         for &i in &keep {
@@ -612,6 +631,26 @@ impl VcdWriter {
         self.dirty.clear();
         if let Err(e) = r {
             self.fail(format!("writing: {e}"));
+            return;
+        }
+        // The size limit, looked at every 1024 samples (the file lags its buffer by at most
+        // 64 KiB).
+        if self.samples.is_multiple_of(1024) {
+            let bytes = self
+                .out
+                .as_mut()
+                .and_then(|w| w.writer().get_ref().metadata().ok())
+                .map_or(0, |m| m.len());
+            if bytes > self.limit {
+                let msg = format!(
+                    "{}: the waveform passed --wave-limit ({} bytes) at cycle {t}, {:.0} bytes per cycle so far; the run was stopped and nothing written. Narrow it with --vcd-window FROM:TO or --vcd-scope PATTERN, or raise --wave-limit",
+                    self.path.display(),
+                    self.limit,
+                    bytes as f64 / (t.max(1) as f64)
+                );
+                self.usage = Some(msg.clone());
+                self.fail(msg);
+            }
         }
     }
 
@@ -658,7 +697,23 @@ impl VcdWriter {
     }
 }
 
+/// The default size limit of a VCD: 2 GiB (a whole ratio-100 run is about 6.3 GB).
+pub const DEFAULT_WAVE_LIMIT: u64 = 2 << 30;
+
+static WAVE_LIMIT: std::sync::atomic::AtomicU64 =
+    std::sync::atomic::AtomicU64::new(DEFAULT_WAVE_LIMIT);
+
+/// Sets the size limit of the VCDs written from now on (`--wave-limit`): a writer whose
+/// file passes it stops the run and reports a usage error, leaving nothing behind.
+pub fn set_wave_limit(bytes: u64) {
+    WAVE_LIMIT.store(bytes, std::sync::atomic::Ordering::Relaxed);
+}
+
 impl Probe for VcdWriter {
+    fn stop(&self) -> bool {
+        self.usage.is_some()
+    }
+
     fn cycle(&mut self, t: u64) {
         self.end_sample();
         if self.error.is_some() {

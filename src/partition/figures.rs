@@ -106,14 +106,14 @@ pub fn figures(dir: &Path) -> Result<()> {
             let svg = workload_svg(&caption, &panels)?;
             let out = dir.join(format!("workload-{}-ratio{ratio}.svg", kind.name()));
             write_atomic(&out, svg.as_bytes())?;
-            println!("{}", out.display());
+            crate::output::outln!("{}", out.display());
         }
     }
     let table = imbalance_table()?;
     let out = dir.join("imbalance.md");
     write_atomic(&out, table.as_bytes())?;
-    print!("{table}");
-    println!("{} ({:.1} s)", out.display(), start.elapsed().as_secs_f64());
+    crate::output::out!("{table}");
+    crate::output::outln!("{} ({:.1} s)", out.display(), start.elapsed().as_secs_f64());
     Ok(())
 }
 

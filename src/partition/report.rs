@@ -209,7 +209,7 @@ impl Report {
 
     /// The terminal summary.
     pub fn print(&self) {
-        println!(
+        crate::output::outln!(
             "{} from patch {}: {} sections × {} CTUs, {} low-res rays ({}×{} subregions, {} granularity), ratio {} → {} high-res rays",
             self.scene,
             self.source,
@@ -225,12 +225,19 @@ impl Report {
             self.ratio,
             self.rays_high
         );
-        println!(
+        crate::output::outln!(
             "{:>7}  {:>15}  {:>15}  {:>8}  {:>7}  {:>12}  {:>8}  {:>7}",
-            "section", "θ (deg)", "φ (deg)", "rays", "sectors", "intersect.", "pred.", "loads"
+            "section",
+            "θ (deg)",
+            "φ (deg)",
+            "rays",
+            "sectors",
+            "intersect.",
+            "pred.",
+            "loads"
         );
         for s in &self.sections {
-            println!(
+            crate::output::outln!(
                 "{:>7}  {:>6.2}–{:<8.2}  {:>6.2}–{:<8.2}  {:>8}  {:>7}  {:>12}  {:>+7.1}%  {:>7}",
                 s.part.actual.index,
                 s.part.actual.theta_deg[0],
@@ -247,11 +254,11 @@ impl Report {
                 s.part.actual.patch_loads
             );
         }
-        println!(
+        crate::output::outln!(
             "imbalance (max/mean intersections per section): {:.3} actual, {:.3} predicted; worst CTU imbalance (traversals) {:.3}",
             self.imbalance, self.predicted_imbalance, self.sector_imbalance
         );
-        println!(
+        crate::output::outln!(
             "patch loads: {} with shelling, {} ray by ray (ratio {:.3}); {} intersections, {} traversals",
             self.patch_loads,
             self.patch_loads_baseline,
@@ -260,7 +267,7 @@ impl Report {
             self.traversals
         );
         if self.forced_splits > 0 {
-            println!(
+            crate::output::outln!(
                 "note: {} cut(s) fell where the {} granularity allows none (more parts than positions); those parts are cut geometrically",
                 self.forced_splits,
                 match self.granularity {
@@ -269,7 +276,7 @@ impl Report {
                 }
             );
         }
-        println!(
+        crate::output::outln!(
             "nearest hits vs float tracer: {} mismatches",
             self.nearest_hit_mismatches
         );

@@ -163,7 +163,13 @@ pub fn run(tracer: &Tracer, set: &RaySet, info: &RunInfo, show_progress: bool) -
 /// on cells of `cell` and casts the rays with a progress bar.
 pub fn run_scene(scene: &Scene, file: &Path, spec: &RaySpec, cell: f64) -> Result<ReferenceReport> {
     spec.validate(scene, file)?;
-    let tracer = Tracer::new(scene, cell)?;
+    crate::limits::check_memory(
+        "rays",
+        &spec.rays.to_string(),
+        "the rays and their results",
+        spec.rays as u64 * crate::reference::rays::ray_bytes(),
+    )?;
+    let tracer = Tracer::new(scene, cell).map_err(|e| e.for_scene(file))?;
     let set = spec.rays(scene);
     let info = RunInfo {
         scene: &scene.name,

@@ -12,6 +12,7 @@
 //! polygon against a box, conservative by [`OVERLAP_SLACK`] of a cell: it may list a patch that
 //! misses a cell by less than that, never omits one that touches it.
 
+use crate::error::short;
 use crate::error::{Error, Result};
 use crate::scene::{Aabb, Patch, Scene};
 use glam::DVec3;
@@ -76,12 +77,15 @@ impl Grid {
 
     /// A grid with no patches, covering `bounds`.
     pub fn empty(bounds: Aabb, cell_size: f64) -> Result<Grid> {
-        let here = Path::new("<grid>");
+        let here = Path::new(crate::error::GRID);
         if !(cell_size.is_finite() && cell_size > 0.0) {
             return Err(Error::input(
                 here,
                 "cell size",
-                format!("cell size {cell_size} must be a finite number above 0"),
+                format!(
+                    "cell size {} must be a finite number above 0",
+                    short(cell_size)
+                ),
             ));
         }
         let inv_cell = 1.0 / cell_size;
@@ -99,7 +103,11 @@ impl Grid {
                 return Err(Error::input(
                     here,
                     "cell size",
-                    format!("cell size {cell_size} gives {n} cells along axis {a}"),
+                    format!(
+                        "cell size {} gives {} cells along axis {a}",
+                        short(cell_size),
+                        short(n)
+                    ),
                 ));
             }
             dims[a] = n as usize;
@@ -110,8 +118,11 @@ impl Grid {
                 here,
                 "cell size",
                 format!(
-                    "cell size {cell_size} gives {}×{}×{} = {total} cells, more than {MAX_CELLS}",
-                    dims[0], dims[1], dims[2]
+                    "cell size {} gives {}×{}×{} = {total} cells, more than {MAX_CELLS}",
+                    short(cell_size),
+                    dims[0],
+                    dims[1],
+                    dims[2]
                 ),
             ));
         }

@@ -284,6 +284,16 @@ pub fn hemisphere_rays(
 /// Most rays one run may cast.
 pub const MAX_RAYS: usize = 100_000_000;
 
+/// Bytes the float reference holds per ray at its peak: the ray, its weight, its prepared
+/// form and its result (an estimate for [`crate::limits::check_memory`]).
+pub fn ray_bytes() -> u64 {
+    use crate::reference::tracer::{PreparedRay, Ray};
+    (std::mem::size_of::<Ray>()
+        + std::mem::size_of::<f64>()
+        + std::mem::size_of::<PreparedRay>()
+        + 32) as u64
+}
+
 /// Checks a source id and a ray count against the scene read from `file`: a source that
 /// does not exist is `Error::Input` at place `source`; a ray count outside 1..=[`MAX_RAYS`]
 /// is `Error::Param` `rays`.

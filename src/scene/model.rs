@@ -3,7 +3,7 @@
 //! the patch. The polygon geometry is checked by [`super::polygon`].
 
 use super::polygon::{self, MAX_COORD};
-use crate::error::{Error, Result};
+use crate::error::{short, Error, Result};
 use crate::output::write_atomic;
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
@@ -152,7 +152,8 @@ impl Patch {
             for c in s.rgb() {
                 if !c.is_finite() || c < 0.0 {
                     return Err(format!(
-                        "{what} {c} is out of range (must be finite and >= 0)"
+                        "{what} {} is out of range (must be finite and >= 0)",
+                        short(c)
                     ));
                 }
             }
@@ -206,9 +207,9 @@ impl Scene {
                         format!("patch {id}"),
                         format!(
                             "vertex {k} [{}, {}, {}] lies outside the bounds {:?} - {:?}",
-                            v.x,
-                            v.y,
-                            v.z,
+                            short(v.x),
+                            short(v.y),
+                            short(v.z),
                             b.lo.to_array(),
                             b.hi.to_array()
                         ),
@@ -221,7 +222,7 @@ impl Scene {
 
     /// Reads and validates a JSON scene.
     pub fn load_json(path: &Path) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::unreadable(path, e))?;
+        let text = crate::limits::read_input_string(path)?;
         Scene::from_json_str(&text, path)
     }
 

@@ -16,7 +16,7 @@
 
 use super::model::{Aabb, Patch, Scene, Spectrum};
 use super::polygon;
-use crate::error::{Error, Result};
+use crate::error::{shown, Error, Result};
 use glam::DVec3;
 use std::cell::RefCell;
 use std::path::Path;
@@ -166,6 +166,59 @@ fn prepare(text: &str) -> (Vec<Element>, String) {
     (elements, out)
 }
 
+/// The first statement tobj cannot read, found again with its line (tobj's errors have
+/// none): a vertex with a coordinate that is not a number, or a face whose vertex index is
+/// not a number, zero, or beyond the vertices. `None` when the scan finds nothing.
+fn locate(text: &str) -> Option<(String, String)> {
+    let positions = text
+        .lines()
+        .filter(|l| l.split_whitespace().next() == Some("v"))
+        .count() as i64;
+    let (mut seen, mut face) = (0i64, 0usize);
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => {
+                seen += 1;
+                let coords: Vec<&str> = words.collect();
+                if coords.len() < 3 {
+                    return Some((
+                        format!("line {}", i + 1),
+                        format!("vertex {} has {} coordinates, not 3", seen, coords.len()),
+                    ));
+                }
+                if let Some(w) = coords.iter().find(|w| w.parse::<f64>().is_err()) {
+                    return Some((
+                        format!("line {}", i + 1),
+                        format!("vertex {seen}: {:?} is not a number", shown(w)),
+                    ));
+                }
+            }
+            Some(kw @ ("f" | "l")) => {
+                face += 1;
+                for w in words {
+                    let idx = w.split('/').next().unwrap_or("");
+                    let bad = match idx.parse::<i64>() {
+                        Err(_) => Some(format!("{:?} is not a vertex index", shown(w))),
+                        Ok(0) => Some("vertex index 0 (OBJ counts from 1)".into()),
+                        Ok(k) if k > positions || -k > seen => Some(format!(
+                            "vertex index {k} is beyond the {} vertices",
+                            if k > 0 { positions } else { seen }
+                        )),
+                        Ok(_) => None,
+                    };
+                    if let Some(what) = bad {
+                        let element = if kw == "f" { "face" } else { "line element" };
+                        return Some((format!("line {}, {element} {face}", i + 1), what));
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    None
+}
+
 /// `.mtl` text with `Ka`/`Kd`/`Ks`/`Ke r` expanded to `... r r r`; `Err` names a colour
 /// statement of 0 or 2 numbers (on which tobj would panic).
 fn prepare_mtl(text: &str) -> std::result::Result<String, String> {
@@ -197,7 +250,16 @@ fn prepare_mtl(text: &str) -> std::result::Result<String, String> {
 
 /// Reads an OBJ file into a validated scene.
 pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)> {
-    let bytes = std::fs::read(path).map_err(|e| Error::unreadable(path, e))?;
+    import_bytes(crate::limits::read_input(path)?, path, opts)
+}
+
+/// [`import`] of OBJ text already read from `path` (which names the file in errors and
+/// whose directory holds its material libraries).
+pub fn import_bytes(
+    bytes: Vec<u8>,
+    path: &Path,
+    opts: &ImportOptions,
+) -> Result<(Scene, ImportReport)> {
     let text = String::from_utf8(bytes).map_err(|e| {
         Error::input(
             path,
@@ -241,7 +303,12 @@ pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)
                 "file",
                 "not a material library: not UTF-8 text",
             )),
-            Err(e) => fail(Error::io(&full, e)),
+            Err(_) if full.is_dir() => fail(Error::input(
+                &full,
+                "material library",
+                "is a directory, not a material library (.mtl file)",
+            )),
+            Err(e) => fail(Error::unreadable(&full, e)),
             Ok(t) => match prepare_mtl(&t) {
                 Err(what) => fail(Error::input(&full, "material library", what)),
                 Ok(t) => match tobj::load_mtl_buf(&mut t.as_bytes()) {
@@ -259,8 +326,14 @@ pub fn import(path: &Path, opts: &ImportOptions) -> Result<(Scene, ImportReport)
         return Err(e);
     }
     report.warnings = warnings.into_inner();
-    let (models, materials) =
-        loaded.map_err(|e| Error::input(path, "file", format!("not a readable OBJ file: {e}")))?;
+    let (models, materials) = loaded.map_err(|e| match locate(&text) {
+        Some((place, what)) => Error::input(
+            path,
+            place,
+            format!("not a readable OBJ file: {what} ({e})"),
+        ),
+        None => Error::input(path, "file", format!("not a readable OBJ file: {e}")),
+    })?;
     // Only a missing library can have failed here; its warning is already in the report.
     let materials = materials.unwrap_or_default();
 

@@ -209,7 +209,7 @@ impl MachineTable {
             if !(c.is_finite() && c > 0.0) {
                 return Err(err(
                     "cell_size",
-                    format!("{c} must be a finite length above 0"),
+                    format!("{c:?} must be a finite length above 0"),
                 ));
             }
         }
@@ -230,16 +230,16 @@ impl MachineTable {
             ));
         };
         if !(r.is_finite() && r > 0.0) {
-            return Err(err(format!("{r} must be a positive length")));
+            return Err(err(format!("{r:?} must be a positive length")));
         }
         match t.quantize(r) {
             Some(raw) if raw >= 1 => Ok(raw),
             Some(_) => Err(err(format!(
-                "{r} rounds to 0 in the t format {t} (its LSB is {})",
+                "{r:?} rounds to 0 in the t format {t} (its LSB is {})",
                 t.lsb()
             ))),
             None => Err(err(format!(
-                "{r} does not fit the t format {t} (at most {})",
+                "{r:?} does not fit the t format {t} (at most {})",
                 t.to_f64(t.max_raw())
             ))),
         }

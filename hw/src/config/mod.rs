@@ -19,6 +19,10 @@ pub fn paper() -> MachineConfig {
     MachineConfig::from_toml_str(PAPER_TOML).expect("hw/configs/paper.toml is valid")
 }
 
+/// The machine samples its progress counters every this many cycles (machine/tick.rs), so
+/// the watchdog sees a wait up to twice this late.
+pub const WATCHDOG_SAMPLE_CYCLES: u64 = 64;
+
 /// A configuration value that cannot work. `key` names the table and key
 /// (`machine.shell_radius`), or for a TOML syntax or type error the place (`line L, column C`).
 #[derive(Debug, thiserror::Error, PartialEq, Eq)]
@@ -45,9 +49,13 @@ impl MachineConfig {
                 .span()
                 .map(|s| line_column(text, s.start))
                 .unwrap_or_else(|| "toml".into()),
-            what: e.message().to_string(),
+            what: match e.message().trim() {
+                "" => "incomplete: a value or the rest of the statement is missing here".into(),
+                m => m.to_string(),
+            },
         })?;
         cfg.validate()?;
+        cfg.check_watchdog()?;
         Ok(cfg)
     }
 
@@ -56,6 +64,79 @@ impl MachineConfig {
         let f = self.datapath.formats()?;
         self.machine.validate(f.t)?;
         self.balance.validate(self.machine.ray_buffer_capacity)
+    }
+
+    /// Checks that `watchdog_cycles` outlasts the longest legal wait ([`longest_wait`]
+    /// plus twice [`WATCHDOG_SAMPLE_CYCLES`]), so a healthy run is never reported as a
+    /// deadlock; part of parsing a file ([`MachineConfig::from_toml_str`]). A configuration
+    /// built in code may skip it — the watchdog's own test does, to stand in for a deadlock.
+    ///
+    /// [`longest_wait`]: MachineConfig::longest_wait
+    pub fn check_watchdog(&self) -> Result<(), ConfigError> {
+        let (min, why) = self.longest_wait();
+        let min = min + 2 * WATCHDOG_SAMPLE_CYCLES;
+        if self.machine.watchdog_cycles < min {
+            return Err(ConfigError {
+                key: "machine.watchdog_cycles".into(),
+                what: format!(
+                    "{} is below this configuration's longest legal wait, {why}, plus twice the watchdog's {WATCHDOG_SAMPLE_CYCLES}-cycle sampling: it must be at least {min}, or a healthy run would be reported as a deadlock",
+                    self.machine.watchdog_cycles
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// The longest a healthy machine of this configuration can go without any progress
+    /// event (a grant, an arrival, a DDA step, a job or result, a work-item), in cycles,
+    /// and which wait it is: the largest of a patch load (memory latency + the patch's
+    /// words), a DDA step, the ICU pipeline, the balancer's retry interval and a work-item
+    /// over the inter-cluster link. Validation requires `watchdog_cycles` to be at least
+    /// this plus twice [`WATCHDOG_SAMPLE_CYCLES`].
+    pub fn longest_wait(&self) -> (u64, String) {
+        let m = &self.machine;
+        let b = &self.balance;
+        let words = self
+            .datapath
+            .formats()
+            .map(|f| crate::datapath::record::RecordSizes::of(&f).patch_words as u64)
+            .unwrap_or(0);
+        let link = b.link_latency as u64
+            + (b.work_item_jobs as u64 * crate::msg::JOB_WORDS as u64)
+                .div_ceil(b.link_words_per_cycle as u64);
+        let waits = [
+            (
+                m.memory_latency as u64 + words + 1,
+                format!(
+                    "{} cycles of a patch load (memory_latency {} + {words} words)",
+                    m.memory_latency as u64 + words + 1,
+                    m.memory_latency
+                ),
+            ),
+            (
+                m.dda_cycles_per_step as u64,
+                format!("{} cycles of a DDA step", m.dda_cycles_per_step),
+            ),
+            (
+                self.pipeline_depth() as u64,
+                format!("{} cycles of the ICU pipeline", self.pipeline_depth()),
+            ),
+            (
+                b.sampling_interval as u64,
+                format!(
+                    "{} cycles of the balancer's sampling_interval",
+                    b.sampling_interval
+                ),
+            ),
+            (
+                link,
+                format!(
+                    "{link} cycles of a work-item over the link (link_latency {} + {} jobs' words)",
+                    b.link_latency, b.work_item_jobs
+                ),
+            ),
+        ];
+        waits.into_iter().max_by_key(|w| w.0).expect("five waits")
     }
 
     /// The shell radius, t format raw (validated: it fits and is at least one LSB).
@@ -173,6 +254,28 @@ mod tests {
         let text = PAPER_TOML.replace("cell_size = \"auto\"", "cell_size = \"big\"");
         let e = MachineConfig::from_toml_str(&text).unwrap_err();
         assert!(e.what.contains("not a length"), "{e:?}");
+    }
+
+    #[test]
+    fn a_watchdog_below_the_longest_legal_wait_is_an_error() {
+        // Regression: watchdog_cycles 10..~70, or one long legal wait reaching it, reported
+        // a deadlock on a healthy run.
+        let text = PAPER_TOML.replace("memory_latency = 8 ", "memory_latency = 100000 ");
+        let e = MachineConfig::from_toml_str(&text).unwrap_err();
+        assert_eq!(e.key, "machine.watchdog_cycles", "{e:?}");
+        assert!(e.what.contains("memory_latency 100000"), "{e:?}");
+        let need = MachineConfig::from_toml_str(
+            &text.replace("watchdog_cycles = 100000", "watchdog_cycles = 1000000"),
+        )
+        .unwrap()
+        .longest_wait()
+        .0;
+        assert!(need > 100_000, "{need}");
+        let text = PAPER_TOML.replace("watchdog_cycles = 100000", "watchdog_cycles = 70");
+        let e = MachineConfig::from_toml_str(&text).unwrap_err();
+        assert_eq!(e.key, "machine.watchdog_cycles", "{e:?}");
+        let p = paper();
+        assert!(p.machine.watchdog_cycles >= p.longest_wait().0 + 2 * WATCHDOG_SAMPLE_CYCLES);
     }
 
     #[test]

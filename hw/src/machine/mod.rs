@@ -154,6 +154,33 @@ impl<'a> Machine<'a> {
         }
     }
 
+    /// Bytes the machine's state takes for `cfg` on `patches` patches and `rays` rays, before
+    /// it runs: every link's and store's preallocated slots (the ray buffers, patch buffers
+    /// and request queues dominate for big buffers), each CTU's loaded-patch bitmap, the
+    /// rays' state. An estimate from the configuration alone, for refusing a machine that
+    /// cannot fit before allocating it (tested against the sizes it counts).
+    pub fn memory_estimate(cfg: &MachineConfig, patches: usize, rays: usize) -> u64 {
+        use crate::msg::{JobResult, MemRequest, PatchArrival, RemoteResult};
+        use std::mem::size_of;
+        let m = &cfg.machine;
+        let (c, k) = (m.clusters as u64, m.ctus_per_cluster as u64);
+        let slots = |n: u64, bytes: usize| (n + 1) * bytes as u64;
+        let job = size_of::<crate::msg::Job>();
+        let small = job
+            .max(size_of::<JobResult>())
+            .max(size_of::<RemoteResult>())
+            .max(size_of::<PatchArrival>());
+        let per_cluster = slots(m.ray_buffer_capacity as u64 + k + 1, job)
+            + slots(m.patch_buffer_capacity as u64, size_of::<PatchArrival>())
+            + 4 * slots(2, small)
+            + 4096;
+        let per_ctu = slots(m.request_queue_capacity as u64, size_of::<MemRequest>())
+            + 4 * slots(3, small)
+            + (patches as u64).div_ceil(8)
+            + 4096;
+        c * per_cluster + c * k * per_ctu + rays as u64 * 64
+    }
+
     /// True when every sector is finished and nothing is in flight.
     pub fn done(&self) -> bool {
         self.clusters.iter().all(Cluster::drained)
@@ -172,13 +199,25 @@ impl<'a> Machine<'a> {
             self.tick(order);
             if let Some(p) = probe.as_deref_mut() {
                 self.probe(p);
+                if p.stop() {
+                    self.cycle += 1;
+                    return Ok(());
+                }
             }
             if self.done() {
                 self.cycle += 1;
                 return Ok(());
             }
             if self.cycle - self.last_progress_cycle > self.cfg.machine.watchdog_cycles {
-                return Err(self.deadlock());
+                // Progress is sampled every 64 cycles (and a cycle jump can step over the
+                // sample): look again before reporting, so only a real stretch of
+                // `watchdog_cycles` ticked cycles without any progress event trips it.
+                let p = self.activity();
+                if p == self.progress {
+                    return Err(self.deadlock());
+                }
+                self.progress = p;
+                self.last_progress_cycle = self.cycle;
             }
             self.cycle += 1;
             if self.cfg.machine.cycle_jump {
