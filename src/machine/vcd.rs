@@ -244,6 +244,10 @@ struct Slot {
     declared: bool,
     /// Its VCD id as text (for the hand-formatted lines).
     id_text: Vec<u8>,
+    /// The id and a newline, zero-padded to 8 bytes (written as one fixed-size copy), and
+    /// how many of its bytes count.
+    id_nl: [u8; 8],
+    id_nl_len: usize,
     /// A text signal's value lines, one per name: `s<name> <id>\n` (VCD).
     text_lines: Vec<Vec<u8>>,
     /// A text signal's names (whitespace as '_', empty as "-").
@@ -510,9 +514,29 @@ impl VcdWriter {
         }
         let buf = &mut self.buf;
         let mut stamped = false;
-        for (i, (p, &v)) in self.prev.iter_mut().zip(values).enumerate() {
-            if *p != v {
-                *p = v;
+        // Eight values at a time: a mask of the changed ones, then only those.
+        let n = values.len();
+        let whole = n - n % 8;
+        let mut base = 0;
+        while base < n {
+            let w = if base < whole { 8 } else { n - base };
+            let mut m = 0u32;
+            if w == 8 {
+                let p: &[u64; 8] = self.prev[base..base + 8].try_into().expect("8");
+                let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
+                for k in 0..8 {
+                    m |= ((p[k] != v[k]) as u32) << k;
+                }
+            } else {
+                for k in 0..w {
+                    m |= ((self.prev[base + k] != values[base + k]) as u32) << k;
+                }
+            }
+            while m != 0 {
+                let i = base + m.trailing_zeros() as usize;
+                m &= m - 1;
+                let v = values[i];
+                self.prev[i] = v;
                 let s = &slots[i];
                 if s.declared {
                     if !stamped {
@@ -523,6 +547,7 @@ impl VcdWriter {
                     put_value(buf, s, v);
                 }
             }
+            base += 8;
         }
         self.drain_buf()
     }
@@ -568,6 +593,8 @@ impl Probe for VcdWriter {
                     kind,
                     declared: false,
                     id_text: Vec::new(),
+                    id_nl: [0; 8],
+                    id_nl_len: 0,
                     text_lines: Vec::new(),
                     names,
                     fst_id: None,
@@ -691,6 +718,11 @@ fn declare<W: Write>(
             };
             s.declared = true;
             s.id_text = id.to_string().into_bytes();
+            // Seven characters number 94^7 signals.
+            assert!(s.id_text.len() < 8, "VCD id {id} too long");
+            s.id_nl[..s.id_text.len()].copy_from_slice(&s.id_text);
+            s.id_nl[s.id_text.len()] = b'\n';
+            s.id_nl_len = s.id_text.len() + 1;
             s.text_lines = s
                 .names
                 .iter()
@@ -817,6 +849,35 @@ fn put_decimal(buf: &mut Vec<u8>, mut t: u64) {
     buf.extend_from_slice(&d[20 - n..]);
 }
 
+/// Every byte's digits without leading zeros ("0" for zero), left-aligned and zero-padded
+/// to 8 bytes, and how many count.
+static BIN8_TRIM: [([u8; 8], usize); 256] = {
+    let mut t = [([0u8; 8], 0usize); 256];
+    let mut i = 0;
+    while i < 256 {
+        let mut n = 8;
+        while n > 1 && (i >> (n - 1)) & 1 == 0 {
+            n -= 1;
+        }
+        let mut k = 0;
+        while k < n {
+            t[i].0[k] = b'0' + ((i >> (n - 1 - k)) & 1) as u8;
+            k += 1;
+        }
+        t[i].1 = n;
+        i += 1;
+    }
+    t
+};
+
+/// Appends `bytes`, of which the first `n` count (one fixed-size copy, then a cut).
+#[inline(always)]
+fn put8(buf: &mut Vec<u8>, bytes: &[u8; 8], n: usize) {
+    buf.extend_from_slice(bytes);
+    let l = buf.len();
+    buf.truncate(l - 8 + n);
+}
+
 /// One VCD value change line, as the `vcd` crate writes it: `0!`/`1!` for a one-bit wire,
 /// `b<bits> !` for a vector (leading zeros dropped, which VCD zero-extends), `s<text> !`.
 #[inline]
@@ -828,27 +889,24 @@ fn put_value(buf: &mut Vec<u8>, s: &Slot, v: u64) {
             } else {
                 // Not a state of the declared list: shown as "-".
                 buf.extend_from_slice(b"s- ");
-                buf.extend_from_slice(&s.id_text);
-                buf.push(b'\n');
+                put8(buf, &s.id_nl, s.id_nl_len);
             }
         }
         _ if s.width == 1 => {
             buf.push(b'0' + (v & 1) as u8);
-            buf.extend_from_slice(&s.id_text);
-            buf.push(b'\n');
+            put8(buf, &s.id_nl, s.id_nl_len);
         }
         _ => {
             buf.push(b'b');
             let n = (64 - v.leading_zeros()).max(1) as usize;
             let top = (n - 1) / 8;
-            let first = &BIN8[((v >> (8 * top)) & 0xFF) as usize];
-            buf.extend_from_slice(&first[8 - (n - 8 * top)..]);
+            let (first, len) = &BIN8_TRIM[((v >> (8 * top)) & 0xFF) as usize];
+            put8(buf, first, *len);
             for k in (0..top).rev() {
                 buf.extend_from_slice(&BIN8[((v >> (8 * k)) & 0xFF) as usize]);
             }
             buf.push(b' ');
-            buf.extend_from_slice(&s.id_text);
-            buf.push(b'\n');
+            put8(buf, &s.id_nl, s.id_nl_len);
         }
     }
 }
@@ -939,6 +997,8 @@ mod tests {
             kind: SignalKind::Bits,
             declared: true,
             id_text: b"%+".to_vec(),
+            id_nl: *b"%+\n\0\0\0\0\0",
+            id_nl_len: 3,
             text_lines: Vec::new(),
             names: Vec::new(),
             fst_id: None,
