@@ -234,6 +234,62 @@ pub struct VcdSummary {
     pub bytes: u64,
 }
 
+/// The thread that writes the VCD's blocks to its file, in the order sent, so writing
+/// overlaps the simulation; the bytes are the same whatever the timing. Blocks go through a
+/// bounded channel (memory stays bounded) and come back empty to be reused (no allocation
+/// per block once a few circulate).
+struct BodyThread {
+    tx: std::sync::mpsc::SyncSender<Vec<u8>>,
+    back: std::sync::mpsc::Receiver<Vec<u8>>,
+    handle: std::thread::JoinHandle<io::Result<File>>,
+}
+
+impl BodyThread {
+    fn new(mut f: File) -> Self {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(2);
+        let (back_tx, back) = std::sync::mpsc::channel();
+        let handle = std::thread::spawn(move || {
+            let mut err = None;
+            for mut b in rx {
+                if err.is_none() {
+                    err = f.write_all(&b).err();
+                }
+                b.clear();
+                // The writer may be gone (finished or dropped): nothing to hand back to.
+                let _ = back_tx.send(b);
+            }
+            match err {
+                Some(e) => Err(e),
+                None => Ok(f),
+            }
+        });
+        BodyThread { tx, back, handle }
+    }
+
+    /// Sends `buf`'s bytes, leaving it an empty buffer (a returned one when there is one).
+    fn send(&mut self, buf: &mut Vec<u8>) -> io::Result<()> {
+        let next = self
+            .back
+            .try_recv()
+            .unwrap_or_else(|_| Vec::with_capacity(buf.capacity()));
+        let full = std::mem::replace(buf, next);
+        self.tx
+            .send(full)
+            .map_err(|_| io::Error::other("the VCD writer thread stopped"))
+    }
+
+    /// Sends the last bytes and waits for the file.
+    fn finish(mut self, mut last: Vec<u8>) -> io::Result<File> {
+        if !last.is_empty() {
+            self.send(&mut last)?;
+        }
+        drop(self.tx);
+        self.handle
+            .join()
+            .map_err(|_| io::Error::other("the VCD writer thread panicked"))?
+    }
+}
+
 /// One signal of the layout, with what writing its changes needs, built once.
 struct Slot {
     scope: String,
@@ -267,7 +323,10 @@ pub struct VcdWriter {
     /// The temporary file beside `path`; dropped unfinished, it is removed, so no
     /// half-written VCD is left.
     tmp: Option<TempFile>,
-    out: Option<vcd::Writer<BufWriter<File>>>,
+    /// The VCD header (the `vcd` crate writes it into memory; it goes out first).
+    out: Option<vcd::Writer<Vec<u8>>>,
+    /// The VCD's file writer thread.
+    body: Option<BodyThread>,
     /// The FST writer instead of `out` when the path ends in `.fst`.
     fst: Option<Fst>,
     /// A value as FST writes it: one ASCII '0'/'1' per bit, MSB first.
@@ -299,10 +358,14 @@ impl VcdWriter {
     /// A writer streaming to a temporary file beside `path` (created with its directory).
     pub fn create(path: &Path, opts: VcdOptions) -> Result<Self> {
         let (tmp, f) = TempFile::create(path)?;
-        let buf = BufWriter::with_capacity(1 << 16, f);
-        let (out, fst) = match WaveFormat::of(path) {
-            WaveFormat::Vcd => (Some(vcd::Writer::new(buf)), None),
+        let (out, fst, body) = match WaveFormat::of(path) {
+            WaveFormat::Vcd => (
+                Some(vcd::Writer::new(Vec::new())),
+                None,
+                Some(BodyThread::new(f)),
+            ),
             WaveFormat::Fst => {
+                let buf = BufWriter::with_capacity(1 << 16, f);
                 let info = FstInfo {
                     start_time: if opts.window == Window::ALL {
                         0
@@ -317,13 +380,14 @@ impl VcdWriter {
                 };
                 let h = FstHeaderWriter::new(buf, &info)
                     .map_err(|e| Error::io(tmp.tmp_path(), io::Error::other(e.to_string())))?;
-                (None, Some(Fst::Header(h)))
+                (None, Some(Fst::Header(h)), None)
             }
         };
         Ok(VcdWriter {
             path: path.to_path_buf(),
             tmp: Some(tmp),
             out,
+            body,
             fst,
             fst_buf: Vec::new(),
             opts,
@@ -354,11 +418,9 @@ impl VcdWriter {
             return Err(Error::Check(format!("{}: {e}", self.path.display())));
         }
         let body = std::mem::take(&mut self.buf);
-        let done = match (self.out.take(), self.fst.take()) {
-            (Some(mut w), _) => (|| -> io::Result<u64> {
-                w.writer().write_all(&body)?;
-                w.flush()?;
-                let f = w.writer().get_ref();
+        let done = match (self.body.take(), self.fst.take()) {
+            (Some(t), _) => (|| -> io::Result<u64> {
+                let f = t.finish(body)?;
                 f.sync_all()?;
                 f.metadata().map(|m| m.len())
             })(),
@@ -451,6 +513,9 @@ impl VcdWriter {
         declare(w, &root, &mut self.slots, &mut order)?;
         w.enddefinitions()?;
         self.declared = order;
+        // The header goes out ahead of the body.
+        let head = std::mem::take(w.writer());
+        self.buf.splice(0..0, head);
         Ok(())
     }
 
@@ -480,9 +545,8 @@ impl VcdWriter {
     /// Hands the buffered VCD body to the file once it is large.
     fn drain_buf(&mut self) -> io::Result<()> {
         if self.buf.len() >= VCD_BLOCK_BYTES {
-            let w = self.out.as_mut().expect("open until finish");
-            w.writer().write_all(&self.buf)?;
-            self.buf.clear();
+            let t = self.body.as_mut().expect("open until finish");
+            t.send(&mut self.buf)?;
         }
         Ok(())
     }
