@@ -16,6 +16,8 @@ fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
     let cfg = shellsim::config::machine(None).unwrap();
+    // The machine takes the configuration resolved for the scene ("auto" sizes).
+    let hw = shellsim::config::resolve(&cfg, scene.bounds.scale()).unwrap();
     let spec = RunSpec {
         source: 0,
         ratio: 1,
@@ -36,7 +38,7 @@ fn bench(c: &mut Criterion) {
     g.bench_function("cycle_model", |b| {
         b.iter(|| {
             let mut m = shellsim_hw::machine::Machine::new(
-                cfg,
+                hw,
                 &prep.host.scene,
                 &prep.records,
                 &prep.sectors,
@@ -57,7 +59,7 @@ fn bench(c: &mut Criterion) {
             };
             let mut w = shellsim::machine::vcd::VcdWriter::create(&path, opts).unwrap();
             let mut m = shellsim_hw::machine::Machine::new(
-                cfg,
+                hw,
                 &prep.host.scene,
                 &prep.records,
                 &prep.sectors,
@@ -114,6 +116,8 @@ fn cycle_vs_untimed(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
     let cfg = shellsim::config::machine(None).unwrap();
+    // The machine takes the configuration resolved for the scene ("auto" sizes).
+    let hw = shellsim::config::resolve(&cfg, scene.bounds.scale()).unwrap();
     let spec = RunSpec {
         source: 0,
         ratio: 10,
@@ -121,7 +125,7 @@ fn cycle_vs_untimed(c: &mut Criterion) {
     };
     let prep = shellsim::machine::run::prepare(&scene, &path, &cfg, &spec).unwrap();
     let mut m =
-        shellsim_hw::machine::Machine::new(cfg, &prep.host.scene, &prep.records, &prep.sectors, 0);
+        shellsim_hw::machine::Machine::new(hw, &prep.host.scene, &prep.records, &prep.sectors, 0);
     m.run(TickOrder::Forward, None).unwrap();
     let jobs: u64 = m
         .clusters
@@ -141,8 +145,7 @@ fn cycle_vs_untimed(c: &mut Criterion) {
     g.sample_size(10);
     g.bench_function("cycle_model", |b| {
         b.iter(|| {
-            let mut m =
-                shellsim_hw::machine::Machine::new(cfg, fs, &prep.records, &prep.sectors, 0);
+            let mut m = shellsim_hw::machine::Machine::new(hw, fs, &prep.records, &prep.sectors, 0);
             m.run(TickOrder::Forward, None).unwrap();
             black_box(m.cycle)
         })
