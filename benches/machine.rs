@@ -16,7 +16,7 @@ fn bench(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
     let cfg = shellsim::config::machine(None).unwrap();
-    // The machine takes the configuration resolved for the scene, in its own units.
+    // The machine takes the configuration resolved for the scene ("auto" sizes).
     let hw = shellsim::config::in_hardware_units(&cfg, scene.bounds.scale()).unwrap();
     let spec = RunSpec {
         source: 0,
@@ -116,7 +116,7 @@ fn cycle_vs_untimed(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
     let cfg = shellsim::config::machine(None).unwrap();
-    // The machine takes the configuration resolved for the scene, in its own units.
+    // The machine takes the configuration resolved for the scene ("auto" sizes).
     let hw = shellsim::config::in_hardware_units(&cfg, scene.bounds.scale()).unwrap();
     let spec = RunSpec {
         source: 0,

@@ -262,39 +262,38 @@ fn the_watchdog_stops_a_run_that_makes_no_progress() {
 
 /// Records every probed value that changed, with its cycle.
 struct ChangeLog {
-    now: u64,
-    last: std::collections::HashMap<String, String>,
+    names: Vec<String>,
+    last: Option<Vec<u64>>,
     changes: Vec<String>,
 }
 
 impl ChangeLog {
     fn new() -> Self {
         ChangeLog {
-            now: 0,
-            last: Default::default(),
+            names: Vec::new(),
+            last: None,
             changes: Vec::new(),
-        }
-    }
-    fn see(&mut self, key: String, val: String) {
-        if self.last.get(&key) != Some(&val) {
-            self.changes.push(format!("{} {key}={val}", self.now));
-            self.last.insert(key, val);
         }
     }
 }
 
 impl shellsim_hw::trace::Probe for ChangeLog {
-    fn cycle(&mut self, t: u64) {
-        self.now = t;
+    fn declare(&mut self, signals: &[shellsim_hw::trace::SignalDecl]) {
+        self.names = signals
+            .iter()
+            .map(|d| format!("{}.{}", d.scope, d.name))
+            .collect();
     }
-    fn bits(&mut self, s: &str, n: &str, _: u32, v: u64) {
-        self.see(format!("{s}.{n}"), v.to_string());
-    }
-    fn text(&mut self, s: &str, n: &str, v: &str) {
-        self.see(format!("{s}.{n}"), v.to_string());
-    }
-    fn fixed(&mut self, s: &str, n: &str, _: u32, _: u32, raw: i64) {
-        self.see(format!("{s}.{n}"), raw.to_string());
+    fn sample(&mut self, t: u64, values: &[u64]) {
+        let last = self
+            .last
+            .get_or_insert_with(|| vec![u64::MAX; values.len()]);
+        for (i, (l, &v)) in last.iter_mut().zip(values).enumerate() {
+            if *l != v {
+                self.changes.push(format!("{t} {}={v}", self.names[i]));
+                *l = v;
+            }
+        }
     }
 }
 

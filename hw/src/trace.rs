@@ -1,18 +1,38 @@
-//! The trace interface: units describe their signals to a [`Probe`] after each clock edge.
-//! The host's VCD writer implements it; hw/ knows nothing of files or formats.
+//! The trace interface: the machine declares its signals to a [`Probe`] once, then hands it
+//! one flat array of values per sample (after each clock edge). The host's waveform writers
+//! implement it; hw/ knows nothing of files or formats.
 
-/// Receives signal values. Scopes are dot-separated unit paths ("machine.cluster_0.icu");
-/// the set of (scope, name, width) a unit reports never changes between calls.
+/// How a signal's value is to be read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SignalKind {
+    /// An unsigned value.
+    Bits,
+    /// An FSM state: the value is an index into these names.
+    Text(&'static [&'static str]),
+    /// A signed fixed-point value with `frac` fractional bits, as its raw two's-complement
+    /// bits in `width` — shown as a decimal in the viewer through its fixed-point shift.
+    Fixed { frac: u32 },
+}
+
+/// One signal of the layout. Its position in the layout is its id: the value at that index
+/// of every sample.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct SignalDecl {
+    /// Dot-separated unit path ("machine.cluster_0.icu").
+    pub scope: String,
+    pub name: &'static str,
+    /// Width in bits (1..=64; a text signal declares 1).
+    pub width: u32,
+    pub kind: SignalKind,
+}
+
+/// Receives the machine's signals: the layout once, then the values of every sample.
 pub trait Probe {
-    /// The cycle the following values belong to (called first, once per sample).
-    fn cycle(&mut self, t: u64);
-    /// An unsigned value of `width` bits (at most 64).
-    fn bits(&mut self, scope: &str, name: &str, width: u32, value: u64);
-    /// A string (FSM state names).
-    fn text(&mut self, scope: &str, name: &str, value: &str);
-    /// A fixed-point value (raw bits, signed) with `frac` fractional bits — shown as a
-    /// decimal in the viewer through its fixed-point shift.
-    fn fixed(&mut self, scope: &str, name: &str, width: u32, frac: u32, raw: i64);
+    /// The layout, called once before the first sample.
+    fn declare(&mut self, signals: &[SignalDecl]);
+    /// The values at cycle `t` (strictly increasing), one per declared signal, each masked
+    /// to its width (a text signal's value is its name's index).
+    fn sample(&mut self, t: u64, values: &[u64]);
     /// True when the probe cannot go on (a waveform past its size limit): the machine then
     /// ends the run early and the caller reports the probe's error.
     fn stop(&self) -> bool {
@@ -24,8 +44,6 @@ pub trait Probe {
 pub struct NoProbe;
 
 impl Probe for NoProbe {
-    fn cycle(&mut self, _: u64) {}
-    fn bits(&mut self, _: &str, _: &str, _: u32, _: u64) {}
-    fn text(&mut self, _: &str, _: &str, _: &str) {}
-    fn fixed(&mut self, _: &str, _: &str, _: u32, _: u32, _: i64) {}
+    fn declare(&mut self, _: &[SignalDecl]) {}
+    fn sample(&mut self, _: u64, _: &[u64]) {}
 }

@@ -14,8 +14,10 @@
 //! GTKWave then reads out times as plain integers equal to the cycle ("1234 ns" is cycle
 //! 1234), whereas with 1 ps long runs would be shown scaled to ns or µs.
 //!
-//! **Changes only.** The writer keeps the last value of every signal and writes a `#t` line
-//! only when something declared changed at cycle t. The machine probes after every clock edge
+//! **Changes only.** The probe declares its signals once (position = id); each sample is one
+//! flat value array, compared with the last in one pass. The writer writes a `#t` line only
+//! when something declared changed at cycle t, and formats the change lines by hand (the
+//! same bytes as the `vcd` crate's writer, which still writes the header). The machine probes after every clock edge
 //! it simulates; cycles skipped by its cycle jump change nothing, so the waveform is the same.
 //!
 //! **Options.** A cycle window `[from, to]`: nothing outside it is written, but the values
@@ -34,11 +36,11 @@ use fst_writer::{
     FstBodyWriter, FstFileType, FstHeaderWriter, FstInfo, FstScopeType, FstSignalId, FstSignalType,
     FstVarDirection, FstVarType,
 };
-use shellsim_hw::trace::Probe;
+use shellsim_hw::trace::{Probe, SignalDecl, SignalKind as HwKind};
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
-use vcd::{IdCode, ReferenceIndex, SimulationCommand, TimescaleUnit, Value, VarType};
+use vcd::{ReferenceIndex, TimescaleUnit, VarType};
 
 /// The waveform's file format, from the path's extension: `.fst` is FST, anything else VCD.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -185,11 +187,11 @@ impl Default for VcdOptions {
 /// How a signal is reported and shown.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SignalKind {
-    /// An unsigned value (`Probe::bits`).
+    /// An unsigned value.
     Bits,
-    /// A string: an FSM state name (`Probe::text`).
+    /// A string: an FSM state name.
     Text,
-    /// Raw signed fixed point with `frac` fractional bits (`Probe::fixed`).
+    /// Raw signed fixed point with `frac` fractional bits.
     Fixed { frac: u32 },
 }
 
@@ -232,68 +234,99 @@ pub struct VcdSummary {
     pub bytes: u64,
 }
 
-/// A value as last reported.
-#[derive(Clone, Debug, PartialEq, Eq)]
-enum Val {
-    Bits(u64),
-    Text(String),
+/// The thread that writes the VCD's blocks to its file, in the order sent, so writing
+/// overlaps the simulation; the bytes are the same whatever the timing. Blocks go through a
+/// bounded channel (memory stays bounded) and come back empty to be reused (no allocation
+/// per block once a few circulate).
+struct BodyThread {
+    tx: std::sync::mpsc::SyncSender<Vec<u8>>,
+    back: std::sync::mpsc::Receiver<Vec<u8>>,
+    handle: std::thread::JoinHandle<io::Result<File>>,
 }
 
-/// A value as a probe call reports it (borrowed, so an unchanged string costs no allocation).
-#[derive(Clone, Copy, Debug)]
-enum ValRef<'a> {
-    Bits(u64),
-    Text(&'a str),
-}
-
-impl Val {
-    /// True when `v` is the same value.
-    fn equals(&self, v: ValRef) -> bool {
-        match (self, v) {
-            (Val::Bits(a), ValRef::Bits(b)) => *a == b,
-            (Val::Text(a), ValRef::Text(b)) => a == b,
-            _ => false,
-        }
-    }
-
-    /// Takes the value `v`, reusing a string's buffer.
-    fn set(&mut self, v: ValRef) {
-        match (&mut *self, v) {
-            (Val::Text(a), ValRef::Text(b)) => {
-                a.clear();
-                a.push_str(b);
+impl BodyThread {
+    fn new(mut f: File) -> Self {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(2);
+        let (back_tx, back) = std::sync::mpsc::channel();
+        let handle = std::thread::spawn(move || {
+            let mut err = None;
+            for mut b in rx {
+                if err.is_none() {
+                    err = f.write_all(&b).err();
+                }
+                b.clear();
+                // The writer may be gone (finished or dropped): nothing to hand back to.
+                let _ = back_tx.send(b);
             }
-            (_, ValRef::Bits(b)) => *self = Val::Bits(b),
-            (_, ValRef::Text(b)) => *self = Val::Text(b.to_string()),
+            match err {
+                Some(e) => Err(e),
+                None => Ok(f),
+            }
+        });
+        BodyThread { tx, back, handle }
+    }
+
+    /// Sends `buf`'s bytes, leaving it an empty buffer (a returned one when there is one).
+    fn send(&mut self, buf: &mut Vec<u8>) -> io::Result<()> {
+        let next = self
+            .back
+            .try_recv()
+            .unwrap_or_else(|_| Vec::with_capacity(buf.capacity()));
+        let full = std::mem::replace(buf, next);
+        self.tx
+            .send(full)
+            .map_err(|_| io::Error::other("the VCD writer thread stopped"))
+    }
+
+    /// Sends the last bytes and waits for the file.
+    fn finish(mut self, mut last: Vec<u8>) -> io::Result<File> {
+        if !last.is_empty() {
+            self.send(&mut last)?;
         }
+        drop(self.tx);
+        self.handle
+            .join()
+            .map_err(|_| io::Error::other("the VCD writer thread panicked"))?
     }
 }
 
-/// One position in a sample: the k-th probe call of every sample reports the same signal.
+/// One signal of the layout, with what writing its changes needs, built once.
 struct Slot {
     scope: String,
     name: String,
     width: u32,
     kind: SignalKind,
-    /// Its VCD id when declared (inside the scope filter).
-    id: Option<IdCode>,
-    /// The id as text, for the hand-formatted vector lines.
-    id_text: String,
+    /// True when the header declared it (inside the scope filter).
+    declared: bool,
+    /// Its VCD id as text (for the hand-formatted lines).
+    id_text: Vec<u8>,
+    /// The id and a newline, zero-padded to 8 bytes (written as one fixed-size copy), and
+    /// how many of its bytes count.
+    id_nl: [u8; 8],
+    id_nl_len: usize,
+    /// A text signal's value lines, one per name: `s<name> <id>\n` (VCD).
+    text_lines: Vec<Vec<u8>>,
+    /// A text signal's names (whitespace as '_', empty as "-").
+    names: Vec<String>,
     /// Its FST id when declared in an FST.
     fst_id: Option<FstSignalId>,
-    value: Val,
-    /// Changed in the current sample.
-    dirty: bool,
 }
 
 /// Streams probe samples into a VCD file. Build with [`VcdWriter::create`], hand it to
 /// `Machine::run` as the probe, then call [`VcdWriter::finish`].
+///
+/// Each sample is one flat value array (position = signal id, fixed by the layout the probe
+/// declared once); it is compared with the previous sample in one pass, and the changed
+/// values' lines are formatted by hand into a buffer written out in large blocks.
 pub struct VcdWriter {
     path: PathBuf,
     /// The temporary file beside `path`; dropped unfinished, it is removed, so no
     /// half-written VCD is left.
     tmp: Option<TempFile>,
-    out: Option<vcd::Writer<BufWriter<File>>>,
+    /// The VCD header (the `vcd` crate writes it into memory; it goes out first).
+    out: Option<vcd::Writer<Vec<u8>>>,
+    /// The VCD's file writer thread.
+    body: Option<BodyThread>,
     /// The FST writer instead of `out` when the path ends in `.fst`.
     fst: Option<Fst>,
     /// A value as FST writes it: one ASCII '0'/'1' per bit, MSB first.
@@ -302,19 +335,17 @@ pub struct VcdWriter {
     slots: Vec<Slot>,
     /// Signal order of the header (indices into `slots`).
     declared: Vec<usize>,
-    /// Slots changed in the current sample.
-    dirty: Vec<usize>,
-    /// Index of the next call within the current sample.
-    pos: usize,
-    /// The current sample's cycle (None before the first).
+    /// The last sample's values (those holding now).
+    prev: Vec<u64>,
+    /// VCD body bytes not yet handed to the file.
+    buf: Vec<u8>,
+    /// The last sample's cycle (None before the first).
     t: Option<u64>,
-    /// True once the header is written (after the first sample).
+    /// True once the layout is declared and the header written.
     header_done: bool,
     /// True once the window's opening dump is written.
     window_open: bool,
     samples: u64,
-    /// This sample takes `report`'s fast path.
-    fast: bool,
     timestamps: u64,
     /// The first error; later calls do nothing and `finish` reports it.
     error: Option<String>,
@@ -323,17 +354,25 @@ pub struct VcdWriter {
     usage: Option<String>,
     /// The VCD's size limit in bytes (see [`set_wave_limit`]).
     limit: u64,
-    scratch: String,
+    /// VCD body bytes handed to the file so far.
+    bytes_out: u64,
 }
+
+/// Hand the VCD body to the file past this many buffered bytes.
+const VCD_BLOCK_BYTES: usize = 1 << 20;
 
 impl VcdWriter {
     /// A writer streaming to a temporary file beside `path` (created with its directory).
     pub fn create(path: &Path, opts: VcdOptions) -> Result<Self> {
         let (tmp, f) = TempFile::create(path)?;
-        let buf = BufWriter::with_capacity(1 << 16, f);
-        let (out, fst) = match WaveFormat::of(path) {
-            WaveFormat::Vcd => (Some(vcd::Writer::new(buf)), None),
+        let (out, fst, body) = match WaveFormat::of(path) {
+            WaveFormat::Vcd => (
+                Some(vcd::Writer::new(Vec::new())),
+                None,
+                Some(BodyThread::new(f)),
+            ),
             WaveFormat::Fst => {
+                let buf = BufWriter::with_capacity(1 << 16, f);
                 let info = FstInfo {
                     start_time: if opts.window == Window::ALL {
                         0
@@ -348,39 +387,38 @@ impl VcdWriter {
                 };
                 let h = FstHeaderWriter::new(buf, &info)
                     .map_err(|e| Error::io(tmp.tmp_path(), io::Error::other(e.to_string())))?;
-                (None, Some(Fst::Header(h)))
+                (None, Some(Fst::Header(h)), None)
             }
         };
         Ok(VcdWriter {
             path: path.to_path_buf(),
             tmp: Some(tmp),
             out,
+            body,
             fst,
             fst_buf: Vec::new(),
             opts,
             slots: Vec::new(),
             declared: Vec::new(),
-            dirty: Vec::new(),
-            pos: 0,
+            prev: Vec::new(),
+            buf: Vec::with_capacity(VCD_BLOCK_BYTES + (1 << 16)),
             t: None,
             header_done: false,
             window_open: false,
             samples: 0,
-            fast: false,
             timestamps: 0,
             error: None,
             usage: None,
             limit: WAVE_LIMIT.load(std::sync::atomic::Ordering::Relaxed),
-            scratch: String::new(),
+            bytes_out: 0,
         })
     }
 
-    /// Ends the last sample, flushes, and renames the file into place. On an error the
-    /// temporary file is removed and nothing appears at the target path.
+    /// Flushes, and renames the file into place. On an error the temporary file is removed
+    /// and nothing appears at the target path.
     pub fn finish(mut self) -> Result<VcdSummary> {
-        self.end_sample();
         if !self.header_done && self.error.is_none() {
-            // No sample at all: still a valid (empty) VCD.
+            // No layout at all: still a valid (empty) VCD.
             if let Err(e) = self.write_header() {
                 self.fail(format!("writing: {e}"));
             }
@@ -393,11 +431,11 @@ impl VcdWriter {
             // Dropping `self` removes the temporary file.
             return Err(Error::Check(format!("{}: {e}", self.path.display())));
         }
-        let done = match (self.out.take(), self.fst.take()) {
-            (Some(mut w), _) => (|| -> io::Result<u64> {
-                w.flush()?;
-                let f = w.writer().get_ref();
-                crate::output::sync_file(f)?;
+        let body = std::mem::take(&mut self.buf);
+        let done = match (self.body.take(), self.fst.take()) {
+            (Some(t), _) => (|| -> io::Result<u64> {
+                let f = t.finish(body)?;
+                crate::output::sync_file(&f)?;
                 f.metadata().map(|m| m.len())
             })(),
             (None, Some(Fst::Body(b))) => (|| -> io::Result<u64> {
@@ -442,97 +480,9 @@ impl VcdWriter {
         }
     }
 
-    /// One probe call: checks the layout (first sample: adds the slot) and stages the value.
-    fn report(&mut self, scope: &str, name: &str, width: u32, kind: SignalKind, v: ValRef) {
-        // Fast path, after the header and off the layout-check samples: one slot lookup,
-        // a width/kind check and a value compare.
-        if self.fast {
-            let i = self.pos;
-            if let Some(s) = self.slots.get_mut(i) {
-                if s.width == width && s.kind == kind {
-                    self.pos += 1;
-                    if !s.value.equals(v) {
-                        s.value.set(v);
-                        if !s.dirty && s.declared() {
-                            s.dirty = true;
-                            self.dirty.push(i);
-                        }
-                    }
-                    return;
-                }
-            }
-        }
-        if self.error.is_some() {
-            return;
-        }
-        if self.t.is_none() {
-            self.fail("a probe reported a value before the first cycle()");
-            return;
-        }
-        if !(1..=64).contains(&width) {
-            self.fail(format!("{scope}.{name}: width {width} is not in 1..=64"));
-            return;
-        }
-        let i = self.pos;
-        self.pos += 1;
-        if !self.header_done {
-            if self
-                .slots
-                .iter()
-                .any(|s| s.scope == scope && s.name == name)
-            {
-                self.fail(format!("{scope}.{name} reported twice in one sample"));
-                return;
-            }
-            self.slots.push(Slot {
-                scope: scope.to_string(),
-                name: name.to_string(),
-                width,
-                kind,
-                id: None,
-                id_text: String::new(),
-                fst_id: None,
-                value: match v {
-                    ValRef::Bits(b) => Val::Bits(b),
-                    ValRef::Text(t) => Val::Text(t.to_string()),
-                },
-                dirty: true,
-            });
-            return;
-        }
-        let Some(s) = self.slots.get_mut(i) else {
-            self.fail(format!(
-                "{scope}.{name}: more signals than in the first sample"
-            ));
-            return;
-        };
-        // The layout check: width and kind on every call; the names (string compares) on the
-        // first samples and every 64th (every sample in debug builds), which keeps the check
-        // from dominating the writer's time.
-        let full_check =
-            cfg!(debug_assertions) || self.samples <= 4 || self.samples.is_multiple_of(64);
-        if s.width != width
-            || s.kind != kind
-            || (full_check && (s.name != name || s.scope != scope))
-        {
-            let msg = format!(
-                "signal {} of a sample is {scope}.{name}, but {}.{} in the first sample",
-                i, s.scope, s.name
-            );
-            self.fail(msg);
-            return;
-        }
-        if !s.value.equals(v) {
-            s.value.set(v);
-            if !s.dirty && s.declared() {
-                s.dirty = true;
-                self.dirty.push(i);
-            }
-        }
-    }
-
     /// Writes the header: scope tree, variables, `$enddefinitions`.
     fn write_header(&mut self) -> io::Result<()> {
+        self.header_done = true;
         let filter = self.opts.scope.clone();
         let keep: Vec<usize> = (0..self.slots.len())
             .filter(|&i| {
@@ -566,9 +516,6 @@ impl VcdWriter {
             declare_fst(&mut h, &root, &mut self.slots, &mut order).map_err(fst_err)?;
             self.fst = Some(Fst::Body(h.finish().map_err(fst_err)?));
             self.declared = order;
-            for s in &mut self.slots {
-                s.dirty = false;
-            }
             return Ok(());
         }
         let w = self.out.as_mut().expect("open until finish");
@@ -588,59 +535,219 @@ impl VcdWriter {
         declare(w, &root, &mut self.slots, &mut order)?;
         w.enddefinitions()?;
         self.declared = order;
-        for s in &mut self.slots {
-            s.dirty = false;
+        // The header goes out ahead of the body.
+        let head = std::mem::take(w.writer());
+        self.buf.splice(0..0, head);
+        Ok(())
+    }
+
+    /// `#t` and every declared value (those of the last sample) in a `$dumpvars` block;
+    /// opens the window.
+    fn dump_all(&mut self, t: u64) -> io::Result<()> {
+        self.window_open = true;
+        self.timestamps += 1;
+        if let Some(Fst::Body(b)) = &mut self.fst {
+            // FST has no $dumpvars: the first time's values are the initial state.
+            b.time_change(t).map_err(fst_err)?;
+            for &i in &self.declared {
+                fst_value(b, &self.slots[i], self.prev[i], &mut self.fst_buf)?;
+            }
+            return Ok(());
+        }
+        let buf = &mut self.buf;
+        put_time(buf, t);
+        buf.extend_from_slice(b"$dumpvars\n");
+        for &i in &self.declared {
+            put_value(buf, &self.slots[i], self.prev[i]);
+        }
+        buf.extend_from_slice(b"$end\n");
+        self.drain_buf()
+    }
+
+    /// Hands the buffered VCD body to the file once it is large.
+    fn drain_buf(&mut self) -> io::Result<()> {
+        if self.buf.len() >= VCD_BLOCK_BYTES {
+            self.bytes_out += self.buf.len() as u64;
+            let t = self.body.as_mut().expect("open until finish");
+            t.send(&mut self.buf)?;
         }
         Ok(())
     }
 
-    /// Ends the current sample: header after the first, then its changes if in the window.
-    fn end_sample(&mut self) {
-        let Some(t) = self.t else { return };
+    /// Compares `values` with the last sample in one pass, takes them, and writes `#t` and
+    /// the changed declared values (nothing when none changed).
+    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
+        let slots = &self.slots;
+        if let Some(Fst::Body(b)) = &mut self.fst {
+            let mut stamped = false;
+            for (i, (p, &v)) in self.prev.iter_mut().zip(values).enumerate() {
+                if *p != v {
+                    *p = v;
+                    let s = &slots[i];
+                    if s.declared {
+                        if !stamped {
+                            stamped = true;
+                            self.timestamps += 1;
+                            b.time_change(t).map_err(fst_err)?;
+                        }
+                        fst_value(b, s, v, &mut self.fst_buf)?;
+                    }
+                }
+            }
+            if stamped && self.timestamps.is_multiple_of(256) && b.size() > FST_FLUSH_BYTES {
+                b.flush().map_err(fst_err)?;
+            }
+            return Ok(());
+        }
+        let buf = &mut self.buf;
+        let mut stamped = false;
+        // Eight values at a time: a mask of the changed ones, then only those.
+        let n = values.len();
+        let whole = n - n % 8;
+        let mut base = 0;
+        while base < n {
+            let w = if base < whole { 8 } else { n - base };
+            let mut m = 0u32;
+            if w == 8 {
+                let p: &[u64; 8] = self.prev[base..base + 8].try_into().expect("8");
+                let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
+                for k in 0..8 {
+                    m |= ((p[k] != v[k]) as u32) << k;
+                }
+            } else {
+                for k in 0..w {
+                    m |= ((self.prev[base + k] != values[base + k]) as u32) << k;
+                }
+            }
+            while m != 0 {
+                let i = base + m.trailing_zeros() as usize;
+                m &= m - 1;
+                let v = values[i];
+                self.prev[i] = v;
+                let s = &slots[i];
+                if s.declared {
+                    if !stamped {
+                        stamped = true;
+                        self.timestamps += 1;
+                        put_time(buf, t);
+                    }
+                    put_value(buf, s, v);
+                }
+            }
+            base += 8;
+        }
+        self.drain_buf()
+    }
+}
+
+impl Probe for VcdWriter {
+    fn declare(&mut self, signals: &[SignalDecl]) {
         if self.error.is_some() {
             return;
         }
-        if self.header_done && self.pos != self.slots.len() {
+        if self.header_done {
+            self.fail("the probe declared its signals twice");
+            return;
+        }
+        let mut seen = std::collections::HashSet::new();
+        for d in signals {
+            if !(1..=64).contains(&d.width) {
+                self.fail(format!(
+                    "{}.{}: width {} is not in 1..=64",
+                    d.scope, d.name, d.width
+                ));
+                return;
+            }
+            if !seen.insert((d.scope.as_str(), d.name)) {
+                self.fail(format!("{}.{} declared twice", d.scope, d.name));
+                return;
+            }
+        }
+        self.slots = signals
+            .iter()
+            .map(|d| {
+                let (kind, names) = match d.kind {
+                    HwKind::Bits => (SignalKind::Bits, Vec::new()),
+                    HwKind::Fixed { frac } => (SignalKind::Fixed { frac }, Vec::new()),
+                    HwKind::Text(names) => {
+                        (SignalKind::Text, names.iter().map(|n| token(n)).collect())
+                    }
+                };
+                Slot {
+                    scope: d.scope.clone(),
+                    name: d.name.to_string(),
+                    width: d.width,
+                    kind,
+                    declared: false,
+                    id_text: Vec::new(),
+                    id_nl: [0; 8],
+                    id_nl_len: 0,
+                    text_lines: Vec::new(),
+                    names,
+                    fst_id: None,
+                }
+            })
+            .collect();
+        self.prev = vec![0; self.slots.len()];
+        if let Err(e) = self.write_header() {
+            self.fail(format!("writing: {e}"));
+        }
+    }
+
+    fn sample(&mut self, t: u64, values: &[u64]) {
+        if self.error.is_some() {
+            return;
+        }
+        if !self.header_done {
+            self.fail("a probe sampled before declaring its signals");
+            return;
+        }
+        if values.len() != self.slots.len() {
             let msg = format!(
-                "cycle {t}: {} signals reported, {} in the first sample",
-                self.pos,
+                "cycle {t}: {} values for {} signals",
+                values.len(),
                 self.slots.len()
             );
             self.fail(msg);
             return;
         }
+        let win = self.opts.window;
         let r = (|| -> io::Result<()> {
-            if !self.header_done {
-                self.write_header()?;
-                self.header_done = true;
+            match self.t {
+                Some(prev) if t <= prev => {
+                    return Err(io::Error::other(format!(
+                        "cycle {t} after cycle {prev}: time must increase"
+                    )));
+                }
+                // The window opens between two samples (the clock jumped over `from`): the
+                // values holding at `from` are those of the previous sample.
+                Some(prev) if !self.window_open && prev < win.from && t > win.from => {
+                    self.dump_all(win.from)?;
+                }
+                _ => {}
             }
-            let win = self.opts.window;
-            if win.contains(t) {
-                if !self.window_open {
+            let first = self.t.is_none();
+            self.t = Some(t);
+            self.samples += 1;
+            if win.contains(t) && self.window_open && !first {
+                self.write_changes(t, values)?;
+            } else {
+                self.prev.copy_from_slice(values);
+                if win.contains(t) && !self.window_open {
                     // No sample before `from` (or this one is at `from`): open here.
                     self.dump_all(t)?;
-                } else if self.dirty.iter().any(|&i| self.slots[i].declared()) {
-                    self.write_changes(t)?;
                 }
             }
             Ok(())
         })();
-        for &i in &self.dirty {
-            self.slots[i].dirty = false;
-        }
-        self.dirty.clear();
         if let Err(e) = r {
             self.fail(format!("writing: {e}"));
             return;
         }
-        // The size limit, looked at every 1024 samples (the file lags its buffer by at most
-        // 64 KiB).
+        // The size limit, looked at every 1024 samples (bytes handed to the file, plus the
+        // buffer not yet handed over).
         if self.samples.is_multiple_of(1024) {
-            let bytes = self
-                .out
-                .as_mut()
-                .and_then(|w| w.writer().get_ref().metadata().ok())
-                .map_or(0, |m| m.len());
+            let bytes = self.bytes_out + self.buf.len() as u64;
             if bytes > self.limit {
                 let msg = format!(
                     "{}: the waveform passed --wave-limit ({} bytes) at cycle {t}, {:.0} bytes per cycle so far; the run was stopped and nothing written. Narrow it with --vcd-window FROM:TO or --vcd-scope PATTERN, or raise --wave-limit",
@@ -654,46 +761,8 @@ impl VcdWriter {
         }
     }
 
-    /// `#t` and every declared value in a `$dumpvars` block; opens the window.
-    fn dump_all(&mut self, t: u64) -> io::Result<()> {
-        self.window_open = true;
-        self.timestamps += 1;
-        if let Some(Fst::Body(b)) = &mut self.fst {
-            // FST has no $dumpvars: the first time's values are the initial state.
-            b.time_change(t).map_err(fst_err)?;
-            for &i in &self.declared {
-                fst_value(b, &self.slots[i], &mut self.fst_buf)?;
-            }
-            return Ok(());
-        }
-        let w = self.out.as_mut().expect("open until finish");
-        w.timestamp(t)?;
-        w.begin(SimulationCommand::Dumpvars)?;
-        for &i in &self.declared {
-            write_value(w, &self.slots[i], &mut self.scratch)?;
-        }
-        w.end()
-    }
-
-    /// `#t` and the changed values.
-    fn write_changes(&mut self, t: u64) -> io::Result<()> {
-        self.timestamps += 1;
-        if let Some(Fst::Body(b)) = &mut self.fst {
-            b.time_change(t).map_err(fst_err)?;
-            for &i in &self.dirty {
-                fst_value(b, &self.slots[i], &mut self.fst_buf)?;
-            }
-            if self.timestamps.is_multiple_of(256) && b.size() > FST_FLUSH_BYTES {
-                b.flush().map_err(fst_err)?;
-            }
-            return Ok(());
-        }
-        let w = self.out.as_mut().expect("open until finish");
-        w.timestamp(t)?;
-        for &i in &self.dirty {
-            write_value(w, &self.slots[i], &mut self.scratch)?;
-        }
-        Ok(())
+    fn stop(&self) -> bool {
+        self.usage.is_some()
     }
 }
 
@@ -709,80 +778,14 @@ pub fn set_wave_limit(bytes: u64) {
     WAVE_LIMIT.store(bytes, std::sync::atomic::Ordering::Relaxed);
 }
 
-impl Probe for VcdWriter {
-    fn stop(&self) -> bool {
-        self.usage.is_some()
-    }
-
-    fn cycle(&mut self, t: u64) {
-        self.end_sample();
-        if self.error.is_some() {
-            return;
-        }
-        if let Some(prev) = self.t {
-            if t <= prev {
-                self.fail(format!("cycle {t} after cycle {prev}: time must increase"));
-                return;
-            }
-            // The window opens between two samples (the clock jumped over `from`): the
-            // values holding at `from` are those of the previous sample.
-            let win = self.opts.window;
-            if !self.window_open && prev < win.from && t > win.from {
-                if let Err(e) = self.dump_all(win.from) {
-                    self.fail(format!("writing: {e}"));
-                    return;
-                }
-            }
-        }
-        self.t = Some(t);
-        self.pos = 0;
-        self.samples += 1;
-        // Samples that check the layout take the full path (see `report`).
-        self.fast = self.header_done
-            && self.error.is_none()
-            && !(cfg!(debug_assertions) || self.samples <= 4 || self.samples.is_multiple_of(64));
-    }
-
-    fn bits(&mut self, scope: &str, name: &str, width: u32, value: u64) {
-        let v = value & mask(width);
-        self.report(scope, name, width, SignalKind::Bits, ValRef::Bits(v));
-    }
-
-    fn text(&mut self, scope: &str, name: &str, value: &str) {
-        // VCD string values are single tokens: whitespace becomes '_', empty becomes "-".
-        let v: std::borrow::Cow<str> = if value.is_empty() {
-            "-".into()
-        } else if value.contains(char::is_whitespace) {
-            value
-                .chars()
-                .map(|c| if c.is_whitespace() { '_' } else { c })
-                .collect::<String>()
-                .into()
-        } else {
-            value.into()
-        };
-        self.report(scope, name, 1, SignalKind::Text, ValRef::Text(&v));
-    }
-
-    fn fixed(&mut self, scope: &str, name: &str, width: u32, frac: u32, raw: i64) {
-        // Two's complement in `width` bits.
-        let v = (raw as u64) & mask(width);
-        self.report(
-            scope,
-            name,
-            width,
-            SignalKind::Fixed { frac },
-            ValRef::Bits(v),
-        );
-    }
-}
-
-/// The low `width` bits.
-fn mask(width: u32) -> u64 {
-    if width >= 64 {
-        u64::MAX
+/// A VCD string token: whitespace becomes '_', empty becomes "-".
+fn token(s: &str) -> String {
+    if s.is_empty() {
+        "-".into()
     } else {
-        (1u64 << width) - 1
+        s.chars()
+            .map(|c| if c.is_whitespace() { '_' } else { c })
+            .collect()
     }
 }
 
@@ -832,21 +835,24 @@ fn declare<W: Write>(
                     Some(ReferenceIndex::Range(s.width as i32 - 1, 0)),
                 )?,
             };
-            s.id = Some(id);
-            s.id_text = id.to_string();
+            s.declared = true;
+            s.id_text = id.to_string().into_bytes();
+            // Seven characters number 94^7 signals.
+            assert!(s.id_text.len() < 8, "VCD id {id} too long");
+            s.id_nl[..s.id_text.len()].copy_from_slice(&s.id_text);
+            s.id_nl[s.id_text.len()] = b'\n';
+            s.id_nl_len = s.id_text.len() + 1;
+            s.text_lines = s
+                .names
+                .iter()
+                .map(|n| format!("s{n} {id}\n").into_bytes())
+                .collect();
             order.push(i);
         }
         declare(w, c, slots, order)?;
         w.upscope()?;
     }
     Ok(())
-}
-
-impl Slot {
-    /// True when the header declared it (inside the scope filter).
-    fn declared(&self) -> bool {
-        self.id.is_some() || self.fst_id.is_some()
-    }
 }
 
 /// An FST error as an I/O error (the writer reports every failure as "writing: …").
@@ -879,7 +885,9 @@ fn declare_fst<W: Write + io::Seek>(
                 FstVarDirection::Implicit,
                 None,
             )?;
+            s.declared = true;
             s.fst_id = Some(id);
+            s.text_lines = s.names.iter().map(|n| fst_text_bits(n)).collect();
             order.push(i);
         }
         declare_fst(h, c, slots, order)?;
@@ -888,58 +896,136 @@ fn declare_fst<W: Write + io::Seek>(
     Ok(())
 }
 
+/// A text as FST writes it: [`FST_TEXT_CHARS`] ASCII characters, right-aligned and
+/// NUL-padded (a longer text keeps its tail), as '0'/'1' bytes MSB first.
+fn fst_text_bits(t: &str) -> Vec<u8> {
+    let bytes = t.as_bytes();
+    let n = FST_TEXT_CHARS as usize;
+    let tail = &bytes[bytes.len().saturating_sub(n)..];
+    let mut buf = Vec::with_capacity(8 * n);
+    for _ in tail.len()..n {
+        buf.extend_from_slice(b"00000000");
+    }
+    for &c in tail {
+        buf.extend_from_slice(&BIN8[c as usize]);
+    }
+    buf
+}
+
 /// Writes one value change into the FST: the bits MSB first, a text as ASCII bytes.
 fn fst_value<W: Write + io::Seek>(
     b: &mut FstBodyWriter<W>,
     s: &Slot,
+    v: u64,
     buf: &mut Vec<u8>,
 ) -> io::Result<()> {
     let id = s.fst_id.expect("only declared signals are written");
+    if s.kind == SignalKind::Text {
+        let line = s.text_lines.get(v as usize).map_or(&[][..], |l| &l[..]);
+        return b.signal_change(id, line).map_err(fst_err);
+    }
     buf.clear();
-    match &s.value {
-        Val::Bits(v) => {
-            for k in (0..s.width).rev() {
-                buf.push(b'0' + ((v >> k) & 1) as u8);
-            }
-        }
-        Val::Text(t) => {
-            let bytes = t.as_bytes();
-            let n = FST_TEXT_CHARS as usize;
-            let tail = &bytes[bytes.len().saturating_sub(n)..];
-            for _ in tail.len()..n {
-                buf.extend_from_slice(b"00000000");
-            }
-            for &c in tail {
-                for k in (0..8).rev() {
-                    buf.push(b'0' + ((c >> k) & 1));
-                }
-            }
-        }
+    for k in (0..s.width).rev() {
+        buf.push(b'0' + ((v >> k) & 1) as u8);
     }
     b.signal_change(id, buf).map_err(fst_err)
 }
 
-/// Writes one value change line.
-fn write_value<W: Write>(w: &mut vcd::Writer<W>, s: &Slot, scratch: &mut String) -> io::Result<()> {
-    let id = s.id.expect("only declared signals are written");
-    match &s.value {
-        Val::Text(v) => w.change_string(id, v),
-        Val::Bits(v) if s.width == 1 => {
-            w.change_scalar(id, if *v != 0 { Value::V1 } else { Value::V0 })
+/// Every byte as eight ASCII '0'/'1', MSB first.
+static BIN8: [[u8; 8]; 256] = {
+    let mut t = [[0u8; 8]; 256];
+    let mut i = 0;
+    while i < 256 {
+        let mut k = 0;
+        while k < 8 {
+            t[i][k] = b'0' + ((i >> (7 - k)) & 1) as u8;
+            k += 1;
         }
-        Val::Bits(v) => {
-            // The crate's `change_vector` writes one `write!` per bit; this writes the same
-            // line (leading zeros dropped, which VCD zero-extends) as bytes, no formatting.
-            scratch.clear();
-            scratch.push('b');
-            let n = (64 - v.leading_zeros()).max(1);
-            for b in (0..n).rev() {
-                scratch.push(if (v >> b) & 1 == 1 { '1' } else { '0' });
+        i += 1;
+    }
+    t
+};
+
+/// `#t\n`.
+fn put_time(buf: &mut Vec<u8>, t: u64) {
+    buf.push(b'#');
+    put_decimal(buf, t);
+    buf.push(b'\n');
+}
+
+/// `t` in decimal.
+fn put_decimal(buf: &mut Vec<u8>, mut t: u64) {
+    let mut d = [0u8; 20];
+    let mut n = 0;
+    loop {
+        d[19 - n] = b'0' + (t % 10) as u8;
+        n += 1;
+        t /= 10;
+        if t == 0 {
+            break;
+        }
+    }
+    buf.extend_from_slice(&d[20 - n..]);
+}
+
+/// Every byte's digits without leading zeros ("0" for zero), left-aligned and zero-padded
+/// to 8 bytes, and how many count.
+static BIN8_TRIM: [([u8; 8], usize); 256] = {
+    let mut t = [([0u8; 8], 0usize); 256];
+    let mut i = 0;
+    while i < 256 {
+        let mut n = 8;
+        while n > 1 && (i >> (n - 1)) & 1 == 0 {
+            n -= 1;
+        }
+        let mut k = 0;
+        while k < n {
+            t[i].0[k] = b'0' + ((i >> (n - 1 - k)) & 1) as u8;
+            k += 1;
+        }
+        t[i].1 = n;
+        i += 1;
+    }
+    t
+};
+
+/// Appends `bytes`, of which the first `n` count (one fixed-size copy, then a cut).
+#[inline(always)]
+fn put8(buf: &mut Vec<u8>, bytes: &[u8; 8], n: usize) {
+    buf.extend_from_slice(bytes);
+    let l = buf.len();
+    buf.truncate(l - 8 + n);
+}
+
+/// One VCD value change line, as the `vcd` crate writes it: `0!`/`1!` for a one-bit wire,
+/// `b<bits> !` for a vector (leading zeros dropped, which VCD zero-extends), `s<text> !`.
+#[inline]
+fn put_value(buf: &mut Vec<u8>, s: &Slot, v: u64) {
+    match s.kind {
+        SignalKind::Text => {
+            if let Some(l) = s.text_lines.get(v as usize) {
+                buf.extend_from_slice(l);
+            } else {
+                // Not a state of the declared list: shown as "-".
+                buf.extend_from_slice(b"s- ");
+                put8(buf, &s.id_nl, s.id_nl_len);
             }
-            scratch.push(' ');
-            scratch.push_str(&s.id_text);
-            scratch.push('\n');
-            w.writer().write_all(scratch.as_bytes())
+        }
+        _ if s.width == 1 => {
+            buf.push(b'0' + (v & 1) as u8);
+            put8(buf, &s.id_nl, s.id_nl_len);
+        }
+        _ => {
+            buf.push(b'b');
+            let n = (64 - v.leading_zeros()).max(1) as usize;
+            let top = (n - 1) / 8;
+            let (first, len) = &BIN8_TRIM[((v >> (8 * top)) & 0xFF) as usize];
+            put8(buf, first, *len);
+            for k in (0..top).rev() {
+                buf.extend_from_slice(&BIN8[((v >> (8 * k)) & 0xFF) as usize]);
+            }
+            buf.push(b' ');
+            put8(buf, &s.id_nl, s.id_nl_len);
         }
     }
 }
@@ -978,18 +1064,30 @@ mod tests {
         assert!(!f.matches("machine.memory"));
     }
 
+    fn decl(scope: &str, name: &'static str, width: u32, kind: HwKind) -> SignalDecl {
+        SignalDecl {
+            scope: scope.to_string(),
+            name,
+            width,
+            kind,
+        }
+    }
+
     /// A hand-driven run: header, changes only, strictly increasing timestamps, strings.
     #[test]
     fn writes_changes_only() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("t.vcd");
         let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
+        w.declare(&[
+            decl("top.a", "x", 4, HwKind::Bits),
+            decl("top.a", "v", 1, HwKind::Bits),
+            decl("top", "state", 1, HwKind::Text(&["IDLE", "BUSY WAIT"])),
+            decl("top.a", "t", 8, HwKind::Fixed { frac: 4 }),
+        ]);
         for (t, v) in [(0u64, 0u64), (1, 0), (2, 3), (5, 3), (6, 1)] {
-            w.cycle(t);
-            w.bits("top.a", "x", 4, v);
-            w.bits("top.a", "v", 1, (v > 0) as u64);
-            w.text("top", "state", if v > 2 { "BUSY WAIT" } else { "IDLE" });
-            w.fixed("top.a", "t", 8, 4, -(v as i64));
+            let raw = (-(v as i64)) as u64 & 0xFF;
+            w.sample(t, &[v, (v > 0) as u64, (v > 2) as u64, raw]);
         }
         let s = w.finish().unwrap();
         let text = std::fs::read_to_string(&p).unwrap();
@@ -1008,6 +1106,47 @@ mod tests {
             .ends_with(".tmp")));
     }
 
+    /// The hand-formatted lines are the `vcd` crate's.
+    #[test]
+    fn value_lines_are_the_vcd_crates() {
+        let mut slot = Slot {
+            scope: "m".into(),
+            name: "x".into(),
+            width: 40,
+            kind: SignalKind::Bits,
+            declared: true,
+            id_text: b"%+".to_vec(),
+            id_nl: *b"%+\n\0\0\0\0\0",
+            id_nl_len: 3,
+            text_lines: Vec::new(),
+            names: Vec::new(),
+            fst_id: None,
+        };
+        for v in [0u64, 1, 2, 0xFF, 0x100, 0x1234_5678, 0xFF_FFFF_FFFF] {
+            let mut buf = Vec::new();
+            put_value(&mut buf, &slot, v);
+            let mut w = vcd::Writer::new(Vec::new());
+            let n = (64 - v.leading_zeros()).max(1);
+            let bits = (0..n).rev().map(|k| {
+                if (v >> k) & 1 == 1 {
+                    vcd::Value::V1
+                } else {
+                    vcd::Value::V0
+                }
+            });
+            w.change_vector("%+".parse().unwrap(), bits).unwrap();
+            assert_eq!(buf, w.writer().clone(), "{v:#x}");
+        }
+        slot.width = 1;
+        let mut buf = Vec::new();
+        put_value(&mut buf, &slot, 1);
+        assert_eq!(buf, b"1%+\n");
+        let mut buf = Vec::new();
+        put_time(&mut buf, 1234567);
+        put_time(&mut buf, 0);
+        assert_eq!(buf, b"#1234567\n#0\n");
+    }
+
     /// The window opens with the values holding at `from`, even between two samples.
     #[test]
     fn a_window_opens_with_the_state_at_from() {
@@ -1018,9 +1157,9 @@ mod tests {
             scope: None,
         };
         let mut w = VcdWriter::create(&p, opts).unwrap();
+        w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
         for (t, v) in [(0u64, 1u64), (2, 2), (6, 3), (7, 4), (9, 5), (12, 6)] {
-            w.cycle(t);
-            w.bits("m", "x", 8, v);
+            w.sample(t, &[v]);
         }
         w.finish().unwrap();
         let text = std::fs::read_to_string(&p).unwrap();
@@ -1047,21 +1186,20 @@ mod tests {
         let p = dir.path().join("x.vcd");
         {
             let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
-            w.cycle(0);
-            w.bits("m", "x", 8, 1);
+            w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
+            w.sample(0, &[1]);
         }
         assert_eq!(dir.path().read_dir().unwrap().count(), 0);
     }
 
     #[test]
-    fn a_changed_layout_is_an_error() {
+    fn a_sample_of_another_length_is_an_error() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("x.vcd");
         let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
-        w.cycle(0);
-        w.bits("m", "x", 8, 1);
-        w.cycle(1);
-        w.bits("m", "y", 8, 1);
+        w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
+        w.sample(0, &[1]);
+        w.sample(1, &[1, 2]);
         assert!(w.finish().is_err());
         assert!(!p.exists());
     }

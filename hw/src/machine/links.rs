@@ -6,10 +6,10 @@
 //! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
 //! own state, not links of this table; `Cluster::commit` clocks them.
 
+use super::probe::Sink;
 use crate::config::MachineTable;
 use crate::link::{Link, UnitId};
 use crate::msg::{Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};
-use crate::trace::Probe;
 
 /// Where a link family appears in the waveform (the probe calls it at that point, so the
 /// signal order of every waveform stays as it is).
@@ -96,7 +96,7 @@ macro_rules! links {
             }
 
             /// Reports the links of `section` to `p`, family by family in table order.
-            pub fn probe(&self, p: &mut dyn Probe, section: Section) {
+            pub(super) fn probe<S: Sink>(&self, p: &mut S, section: Section) {
                 $(
                     let want: Section = $section;
                     let shape = Shape::$shape;
@@ -200,7 +200,7 @@ impl Links {
 }
 
 /// Reports a link's registered valid, ready, occupancy and transfer count.
-pub fn probe_link<T: Clone>(p: &mut dyn Probe, scope: &str, l: &Link<T>) {
+pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>) {
     p.bits(scope, "valid", 1, l.valid() as u64);
     p.bits(scope, "ready", 1, l.ready() as u64);
     p.bits(scope, "occupancy", 16, l.len() as u64);

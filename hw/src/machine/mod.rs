@@ -64,6 +64,8 @@ pub struct Machine<'a> {
     scratch: Vec<UnitId>,
     /// Scope names for probes, built on the first probe.
     scopes: Option<probe::Scopes>,
+    /// The probe's value array, one per signal (allocated with the layout, reused).
+    probe_values: Vec<u64>,
     /// Cycles the clock jumped over (not in the statistics, which must not depend on it).
     pub skipped_cycles: u64,
     progress: u64,
@@ -148,6 +150,7 @@ impl<'a> Machine<'a> {
             scratch: Vec::with_capacity(order.len()),
             order,
             scopes: None,
+            probe_values: Vec::new(),
             skipped_cycles: 0,
             progress: 0,
             last_progress_cycle: 0,

@@ -1,20 +1,120 @@
-//! The machine's waveform: every unit's signals and every link's handshake, reported to a
-//! [`Probe`] after each edge. Scope names are built once; the order of the calls is the
-//! waveform's signal order.
+//! The machine's waveform: every unit's signals and every link's handshake. One walk
+//! ([`Machine::walk`]) visits them in the waveform's signal order: on the first sample it
+//! declares the layout to the [`Probe`] (scope names built once), on every sample it fills a
+//! flat value array, position = signal id, handed to the probe whole — no string is touched
+//! per cycle and nothing is allocated.
 
 use super::links::{probe_link, Section};
 use super::Machine;
-use crate::trace::Probe;
+use crate::trace::{Probe, SignalDecl, SignalKind};
+use crate::units::ctu::CtuState;
+
+/// What the walk reports a signal to: the layout (first sample) or the value array.
+pub(super) trait Sink {
+    /// An unsigned value of `width` bits.
+    fn bits(&mut self, scope: &str, name: &'static str, width: u32, value: u64);
+    /// An FSM state: `index` into `names`.
+    fn text(&mut self, scope: &str, name: &'static str, names: &'static [&'static str], index: u64);
+    /// A signed fixed-point value (raw) with `frac` fractional bits in `width` bits.
+    fn fixed(&mut self, scope: &str, name: &'static str, width: u32, frac: u32, raw: i64);
+}
+
+/// The low `width` bits.
+fn mask(width: u32) -> u64 {
+    if width >= 64 {
+        u64::MAX
+    } else {
+        (1u64 << width) - 1
+    }
+}
+
+/// Collects the layout.
+struct Declare(Vec<SignalDecl>);
+
+impl Sink for Declare {
+    fn bits(&mut self, scope: &str, name: &'static str, width: u32, _: u64) {
+        self.0.push(SignalDecl {
+            scope: scope.to_string(),
+            name,
+            width,
+            kind: SignalKind::Bits,
+        });
+    }
+    fn text(&mut self, scope: &str, name: &'static str, names: &'static [&'static str], _: u64) {
+        self.0.push(SignalDecl {
+            scope: scope.to_string(),
+            name,
+            width: 1,
+            kind: SignalKind::Text(names),
+        });
+    }
+    fn fixed(&mut self, scope: &str, name: &'static str, width: u32, frac: u32, _: i64) {
+        self.0.push(SignalDecl {
+            scope: scope.to_string(),
+            name,
+            width,
+            kind: SignalKind::Fixed { frac },
+        });
+    }
+}
+
+/// Fills the value array in signal order.
+struct Fill<'a> {
+    values: &'a mut [u64],
+    pos: usize,
+}
+
+impl Fill<'_> {
+    #[inline(always)]
+    fn put(&mut self, v: u64) {
+        self.values[self.pos] = v;
+        self.pos += 1;
+    }
+}
+
+impl Sink for Fill<'_> {
+    #[inline(always)]
+    fn bits(&mut self, _: &str, _: &'static str, width: u32, value: u64) {
+        self.put(value & mask(width));
+    }
+    #[inline(always)]
+    fn text(&mut self, _: &str, _: &'static str, _: &'static [&'static str], index: u64) {
+        self.put(index);
+    }
+    #[inline(always)]
+    fn fixed(&mut self, _: &str, _: &'static str, width: u32, _: u32, raw: i64) {
+        self.put(raw as u64 & mask(width));
+    }
+}
 
 impl Machine<'_> {
-    /// Reports every unit's signals to `p` (scope names are built once, not per cycle).
+    /// Reports every unit's signals at the current cycle to `p`: the layout first (once per
+    /// machine), then the sample's values.
     pub fn probe(&mut self, p: &mut dyn Probe) {
         if self.scopes.is_none() {
-            self.scopes = Some(Scopes::new(self));
+            let sc = Scopes::new(self);
+            let mut d = Declare(Vec::new());
+            self.walk(&sc, &mut d);
+            p.declare(&d.0);
+            self.probe_values = vec![0; d.0.len()];
+            self.scopes = Some(sc);
         }
-        let sc = self.scopes.as_ref().expect("built above");
+        let sc = self.scopes.take().expect("built above");
+        let mut values = std::mem::take(&mut self.probe_values);
+        let mut f = Fill {
+            values: &mut values,
+            pos: 0,
+        };
+        self.walk(&sc, &mut f);
+        debug_assert_eq!(f.pos, values.len(), "the walk's layout never changes");
+        p.sample(self.cycle, &values);
+        self.probe_values = values;
+        self.scopes = Some(sc);
+    }
+
+    /// Visits every signal in the waveform's order.
+    fn walk<S: Sink>(&self, sc: &Scopes, p: &mut S) {
         let now = self.cycle;
-        p.cycle(now);
         let t_frac = self.scene.formats.t.frac_bits;
         let t_bits = self.scene.formats.t.bits();
         p.bits(
@@ -68,7 +168,7 @@ impl Machine<'_> {
             probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
             for (j, ctu) in cl.ctus.iter().enumerate() {
                 let s = &cs.ctus[j];
-                p.text(s, "state", ctu.state.name());
+                p.text(s, "state", CtuState::NAMES, ctu.state.index());
                 p.bits(s, "shell", 16, ctu.shell() as u64);
                 p.bits(s, "remaining_rays", 32, ctu.remaining() as u64);
                 p.bits(s, "outstanding_jobs", 32, ctu.outstanding());

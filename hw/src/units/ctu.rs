@@ -43,17 +43,33 @@ pub enum CtuState {
 }
 
 impl CtuState {
+    /// Every state's name (for waveforms), indexed by [`CtuState::index`].
+    pub const NAMES: &'static [&'static str] = &[
+        "IDLE",
+        "SHELL_START",
+        "SCAN",
+        "REQUEST",
+        "STEP",
+        "JOIN",
+        "DONE",
+    ];
+
+    /// The state's position in [`CtuState::NAMES`].
+    pub fn index(self) -> u64 {
+        match self {
+            CtuState::Idle => 0,
+            CtuState::ShellStart => 1,
+            CtuState::Scan => 2,
+            CtuState::Request => 3,
+            CtuState::Step => 4,
+            CtuState::Join => 5,
+            CtuState::Done => 6,
+        }
+    }
+
     /// The state's name (for waveforms).
     pub fn name(self) -> &'static str {
-        match self {
-            CtuState::Idle => "IDLE",
-            CtuState::ShellStart => "SHELL_START",
-            CtuState::Scan => "SCAN",
-            CtuState::Request => "REQUEST",
-            CtuState::Step => "STEP",
-            CtuState::Join => "JOIN",
-            CtuState::Done => "DONE",
-        }
+        Self::NAMES[self.index() as usize]
     }
 }
 
