@@ -6,18 +6,25 @@ use criterion::{criterion_group, criterion_main, Criterion};
 use shellsim::fixed::records::HostFixed;
 use shellsim::machine::run::{run, RunSpec};
 use shellsim::Scene;
+use shellsim_hw::config::MachineConfig;
 use shellsim_hw::datapath::intersect;
 use shellsim_hw::machine::TickOrder;
 use shellsim_hw::Exceptions;
 use std::hint::black_box;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-fn bench(c: &mut Criterion) {
+/// scene2, its path, the built-in configuration, and that configuration resolved for the
+/// scene in the hardware's units (what `Machine::new` takes).
+fn scene2() -> (PathBuf, Scene, MachineConfig, MachineConfig) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
     let cfg = shellsim::config::machine(None).unwrap();
-    // The machine takes the configuration resolved for the scene ("auto" sizes).
     let hw = shellsim::config::in_hardware_units(&cfg, scene.bounds.scale()).unwrap();
+    (path, scene, cfg, hw)
+}
+
+fn bench(c: &mut Criterion) {
+    let (path, scene, cfg, hw) = scene2();
     let spec = RunSpec {
         source: 0,
         ratio: 1,
@@ -113,11 +120,7 @@ fn bench(c: &mut Criterion) {
 /// `untimed_same_jobs` runs the datapath (`intersect`) on as many (ray, patch) pairs as the
 /// machine's ICUs do — each ray against patches in id order, wrapping.
 fn cycle_vs_untimed(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
-    let scene = Scene::load_json(&path).expect("scenes/scene2.json");
-    let cfg = shellsim::config::machine(None).unwrap();
-    // The machine takes the configuration resolved for the scene ("auto" sizes).
-    let hw = shellsim::config::in_hardware_units(&cfg, scene.bounds.scale()).unwrap();
+    let (path, scene, cfg, hw) = scene2();
     let spec = RunSpec {
         source: 0,
         ratio: 10,

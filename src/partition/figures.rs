@@ -70,18 +70,21 @@ fn run_kind(
     partition(scene, tracer, &cfg)
 }
 
+/// The float tracer of a committed scene on the built-in configuration's cell size.
+fn tracer_of(scene: &Scene) -> Result<Tracer> {
+    let m = &crate::config::built_in().machine;
+    Tracer::new(
+        scene,
+        crate::config::cell_size(m.cell_size, scene.bounds.scale()),
+    )
+}
+
 /// Regenerates the committed figures and the imbalance table into `dir`.
 pub fn figures(dir: &Path) -> Result<()> {
     let start = Instant::now();
     for kind in [Kind::Scene1, Kind::Scene2] {
         let scene = gen::generate(kind, gen::DEFAULT_SEED);
-        let tracer = Tracer::new(
-            &scene,
-            crate::config::cell_size(
-                crate::config::built_in().machine.cell_size,
-                scene.bounds.scale(),
-            ),
-        )?;
+        let tracer = tracer_of(&scene)?;
         for ratio in RATIOS {
             let panels: Vec<Panel> = SECTIONS
                 .iter()
@@ -136,13 +139,7 @@ pub fn imbalance_table() -> Result<String> {
     let _ = writeln!(s, "| --- | --- | --- | --- | --- | --- | --- | --- |");
     for kind in Kind::ALL {
         let scene = gen::generate(kind, gen::DEFAULT_SEED);
-        let tracer = Tracer::new(
-            &scene,
-            crate::config::cell_size(
-                crate::config::built_in().machine.cell_size,
-                scene.bounds.scale(),
-            ),
-        )?;
+        let tracer = tracer_of(&scene)?;
         for g in [Granularity::Subregion, Granularity::Ray] {
             let mut cells = Vec::new();
             let mut loads = String::new();
