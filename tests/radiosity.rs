@@ -52,19 +52,7 @@ fn row_sums_are_one(file: &str, model: Model) {
         "shellsim matrix --scene scenes/{file} --model {}",
         model.name()
     );
-    let cfg = shellsim::config::built_in();
-    let host = HostFixed::new(
-        &scene,
-        &path,
-        cfg.datapath,
-        shellsim::config::cell_size(cfg.machine.cell_size, scene.bounds.scale()),
-    )
-    .unwrap();
-    let tracer = Tracer::new(
-        &scene,
-        shellsim::config::cell_size(cfg.machine.cell_size, scene.bounds.scale()),
-    )
-    .unwrap();
+    let (host, tracer) = models(&scene, &path);
     for r in &m.rows {
         assert!(
             (r.sum() - 1.0).abs() < 1e-12,
@@ -127,24 +115,23 @@ mod fixed_equals_machine {
     }
 }
 
+/// The fixed-point scene and the float tracer of `scene` on the built-in configuration
+/// (its cell size resolved for the scene).
+fn models(scene: &Scene, path: &Path) -> (HostFixed, Tracer) {
+    let cfg = shellsim::config::built_in();
+    let cell = shellsim::config::cell_size(cfg.machine.cell_size, scene.bounds.scale());
+    (
+        HostFixed::new(scene, path, cfg.datapath, cell).unwrap(),
+        Tracer::new(scene, cell).unwrap(),
+    )
+}
+
 /// Every difference between the fixed and float matrices comes from rays `check` explains:
 /// no row has an unexplained mismatch.
 fn fixed_vs_float_explained(file: &str) {
     let scene = common::load(file);
     let path = common::scene_path(file);
-    let cfg = shellsim::config::built_in();
-    let host = HostFixed::new(
-        &scene,
-        &path,
-        cfg.datapath,
-        shellsim::config::cell_size(cfg.machine.cell_size, scene.bounds.scale()),
-    )
-    .unwrap();
-    let tracer = Tracer::new(
-        &scene,
-        shellsim::config::cell_size(cfg.machine.cell_size, scene.bounds.scale()),
-    )
-    .unwrap();
+    let (host, tracer) = models(&scene, &path);
     let s = spec(Model::Fixed, 969, 0..scene.patches.len() as u32);
     for i in s.sources.clone() {
         let set = matrix::rays_of(&scene, &s, i);
