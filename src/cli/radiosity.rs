@@ -8,7 +8,7 @@ use crate::output::{check_outputs, outln, Output};
 use crate::radiosity::job::{self, ImageSpec, JobSpec};
 use crate::radiosity::matrix::Model;
 use crate::radiosity::render::{Camera, Shading};
-use crate::radiosity::solve::{Method, SolveParams};
+use crate::radiosity::solve::{Method, SolveParams, System};
 use crate::scene::Scene;
 use std::path::PathBuf;
 
@@ -28,7 +28,11 @@ pub struct RadiosityArgs {
     /// The solver: Gauss-Seidel, or progressive refinement by Southwell shooting.
     #[arg(long, value_enum, default_value_t = Method::Gs)]
     pub method: Method,
-    /// Stop when the residual max |E + ρFB − B| / max E is at most this.
+    /// The system: `power` spreads each patch's power along its own row (energy conserved
+    /// exactly), `gather` is B = E + ρFB (exact in energy only for a reciprocal matrix).
+    #[arg(long, value_enum, default_value_t = System::Power)]
+    pub system: System,
+    /// Stop when the residual max |E + ρH − B| / max E is at most this.
     #[arg(long, default_value_t = SolveParams::default().tol)]
     pub tol: f64,
     /// Most Gauss-Seidel sweeps (shooting: this × patches shots).
@@ -100,6 +104,7 @@ pub fn run(a: &RadiosityArgs) -> Result<()> {
         matrix_file: a.matrix.clone(),
         solve: SolveParams {
             method: a.method,
+            system: a.system,
             tol: a.tol,
             max_iter: a.max_iter,
         },
@@ -116,8 +121,8 @@ pub fn run(a: &RadiosityArgs) -> Result<()> {
     for s in &r.solutions {
         let e = &s.energy;
         outln!(
-            "{}: {} {:?}, {} iterations, residual {:.2e}; energy: emitted {:.6}, absorbed {:.6}, escaped {:.6}, on back sides {:.6}, imbalance {:+.3e}",
-            r.scene, s.model.name(), r.method, s.iterations, s.residual, e.emitted, e.absorbed, e.escaped, e.back, e.imbalance
+            "{}: {} {:?} ({:?} system), {} iterations, residual {:.2e}; energy: emitted {:.6}, absorbed {:.6}, escaped {:.6}, on back sides {:.6}, imbalance {:+.3e}",
+            r.scene, s.model.name(), r.method, r.system, s.iterations, s.residual, e.emitted, e.absorbed, e.escaped, e.back, e.imbalance
         );
         if let Some(t) = &s.machine {
             outln!(

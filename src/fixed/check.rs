@@ -128,7 +128,7 @@ pub fn check(
         .map(|(i, ray)| {
             let float = tracer.trace(ray, Some(source));
             let mut exc = Exceptions::default();
-            let rec = host.ray(i as u32, ray);
+            let rec = host.ray_from(i as u32, ray, source);
             let fixed = rec.and_then(|r| host.scene.nearest_grid(&r, Some(source), &mut exc).0);
             if rec.is_none() {
                 exc.overflow += 1;

@@ -103,15 +103,52 @@ impl HostFixed {
     /// and unit direction, each rounded to nearest. `None` if a value does not fit or the
     /// direction rounds to 0.
     pub fn ray(&self, id: u32, ray: &Ray) -> Option<RayRecord> {
+        self.ray_with(id, ray, None)
+    }
+
+    /// The ray record of a ray leaving patch `source`: as [`HostFixed::ray`], then (1) on
+    /// each axis along which the source's quantized vertices span at least 2 LSB, an origin
+    /// that rounded onto or beyond the source's bounding box is moved one LSB inside it, and
+    /// (2) the origin is lifted one LSB off the source's plane, to its front side, along the
+    /// dominant axis of its normal. Why: a ray leaving near the edge where a patch adjoins the
+    /// source (a wall on the floor) meets that patch just above their shared edge. From an
+    /// origin on the boundary it meets it at t = 0, which the datapath rejects (t ≤ 0 is
+    /// behind the ray); from an origin a little inside but on the plane it meets it a fraction
+    /// of an LSB above the edge (|d_n| / |d_t| of the distance, 0.04 for the paper's most
+    /// grazing ring), where the edge test's rounding can put it outside. Either way the ray
+    /// escapes through the corner of a closed scene. Lifted, it meets the patch at least an
+    /// LSB above the edge, beyond the shear's ½-LSB rounding. The front hemisphere's rays
+    /// never come back to the source's plane, so the lift hides nothing they could hit.
+    pub fn ray_from(&self, id: u32, ray: &Ray, source: u32) -> Option<RayRecord> {
+        self.ray_with(id, ray, self.scene.patches.get(source as usize))
+    }
+
+    fn ray_with(&self, id: u32, ray: &Ray, source: Option<&PatchRecord>) -> Option<RayRecord> {
         let f = self.formats();
         let o = (ray.o - self.origin) / self.scale;
         let len = ray.d.length();
         let d = ray.d / len;
-        let oq = [
+        let mut oq = [
             f.coord.quantize(o.x)?,
             f.coord.quantize(o.y)?,
             f.coord.quantize(o.z)?,
         ];
+        if let Some(p) = source {
+            let v = &p.v[..p.n_verts as usize];
+            for (a, o) in oq.iter_mut().enumerate() {
+                let lo = v.iter().map(|v| v[a]).min().unwrap_or(*o);
+                let hi = v.iter().map(|v| v[a]).max().unwrap_or(*o);
+                if hi - lo >= 2 {
+                    *o = (*o).clamp(lo + 1, hi - 1);
+                }
+            }
+            let n = newell(v);
+            let a = (0..3).max_by_key(|&a| n[a].unsigned_abs()).unwrap_or(2);
+            oq[a] += n[a].signum() as i64;
+            if !f.coord.fits(oq[a] as i128) {
+                return None;
+            }
+        }
         let dq = [
             f.dir.quantize(d.x)?,
             f.dir.quantize(d.y)?,
@@ -259,4 +296,17 @@ fn cell_table(
         count,
         ids,
     })
+}
+
+/// Newell's normal of a quantized polygon (exact): its direction is the front side's.
+fn newell(v: &[[i64; 3]]) -> [i128; 3] {
+    let mut n = [0i128; 3];
+    for (k, a) in v.iter().enumerate() {
+        let b = v[(k + 1) % v.len()];
+        let (a, b) = (a.map(|x| x as i128), b.map(|x| x as i128));
+        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    n
 }

@@ -119,7 +119,7 @@ pub fn prepare(
         .iter()
         .enumerate()
         .map(|(i, r)| {
-            host.ray(i as u32, r).ok_or_else(|| {
+            host.ray_from(i as u32, r, spec.source).ok_or_else(|| {
                 Error::input(
                     file,
                     format!("ray {i}"),

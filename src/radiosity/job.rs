@@ -8,7 +8,7 @@ use crate::output::write_json;
 use crate::radiosity::compare::{compare, relative, Comparison};
 use crate::radiosity::matrix::{self, FormMatrix, MachineTotals, MatrixSpec, Model, Summary};
 use crate::radiosity::render::{self, Camera, HitBuffer, Shading};
-use crate::radiosity::solve::{self, Energy, Method, Solution, SolveParams};
+use crate::radiosity::solve::{self, Energy, Method, Solution, SolveParams, System};
 use crate::reference::tracer::Tracer;
 use crate::scene::Scene;
 use serde::Serialize;
@@ -61,6 +61,7 @@ pub struct JobReport {
     pub rays_per_source: usize,
     pub seed: u64,
     pub method: Method,
+    pub system: System,
     pub tol: f64,
     pub image: ImageSpec,
     pub solutions: Vec<Solved>,
@@ -214,6 +215,7 @@ pub fn run(
         rays_per_source: job.matrix.rays,
         seed: job.matrix.seed,
         method: job.solve.method,
+        system: job.solve.system,
         tol: job.solve.tol,
         image: job.image,
         solutions,

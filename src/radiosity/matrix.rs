@@ -279,7 +279,7 @@ fn records(sh: &Shared, host: &HostFixed, set: &RaySet, source: u32) -> Result<V
         .iter()
         .enumerate()
         .map(|(k, r)| {
-            host.ray(k as u32, r).ok_or_else(|| {
+            host.ray_from(k as u32, r, source).ok_or_else(|| {
                 Error::input(
                     sh.file,
                     format!("source {source}, ray {k}"),

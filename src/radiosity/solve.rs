@@ -1,8 +1,10 @@
-//! The radiosity solution B = E + ρ F B per RGB channel: Gauss-Seidel (gathering, rows of
-//! F) and progressive refinement by Southwell shooting (the unshot radiosity of the patch
-//! with the most unshot power goes out along its column of F). Both solve the same linear
-//! system to the same residual, so they agree to the tolerance; the energy balance and the
-//! per-patch CSV.
+//! The radiosity solution per RGB channel, B = E + ρ H with H the irradiance the matrix
+//! gives, in one of two systems: `power` (default) distributes the power leaving each patch
+//! along its own row — the rays the machine cast from it — so Σ power is conserved exactly
+//! whatever the sampling error; `gather` is the textbook B = E + ρ F B (rows of the
+//! receiver), exact in energy only for a reciprocal matrix. Each is solved by Gauss-Seidel
+//! or by progressive refinement (Southwell shooting); both methods reach the same system's
+//! solution to the tolerance. The energy balance and the per-patch CSV.
 
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
@@ -16,17 +18,30 @@ use std::path::Path;
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
-    /// Gauss-Seidel sweeps over the rows in id order.
+    /// Gauss-Seidel sweeps over the patches in id order.
     Gs,
     /// Southwell shooting (progressive refinement).
     Shoot,
 }
 
-/// When to stop: the residual max_i,c |E + ρ F B − B| over max E is at most `tol`, or
+/// Which linear system the matrix stands for.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum System {
+    /// A_j B_j = A_j E_j + ρ_j Σ_i F_ij A_i B_i: patch i's power goes out along row i (the
+    /// rays cast from i), so emitted = absorbed + escaped + back exactly.
+    Power,
+    /// B_i = E_i + ρ_i Σ_j F_ij B_j: patch i gathers along its row; the energy balance is
+    /// off by the matrix's departure from reciprocity (A_i F_ij = A_j F_ji).
+    Gather,
+}
+
+/// When to stop: the residual max_i,c |E + ρ H − B| over max E is at most `tol`, or
 /// after `max_iter` sweeps (Gauss-Seidel) or `max_iter` × n shots.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct SolveParams {
     pub method: Method,
+    pub system: System,
     pub tol: f64,
     pub max_iter: usize,
 }
@@ -35,6 +50,7 @@ impl Default for SolveParams {
     fn default() -> Self {
         SolveParams {
             method: Method::Gs,
+            system: System::Power,
             tol: 1e-12,
             max_iter: 10_000,
         }
@@ -42,15 +58,16 @@ impl Default for SolveParams {
 }
 
 /// The energy balance of a solution (power = area × radiosity, per channel summed over RGB
-/// and divided by 3): what is emitted equals what is absorbed plus what escapes, up to the
-/// matrix's departure from reciprocity (0 for an exactly reciprocal matrix).
+/// and divided by 3): what is emitted equals what is absorbed plus what escapes plus what
+/// lands on back sides — exactly in the `power` system, up to the matrix's departure from
+/// reciprocity in `gather`.
 #[derive(Clone, Copy, Debug, Serialize)]
 pub struct Energy {
     /// Σ A_i E_i.
     pub emitted: f64,
     /// Σ A_i B_i: the power leaving all patches.
     pub leaving: f64,
-    /// Σ A_i (1 − ρ_i) H_i, with H_i = Σ_j F_ij B_j the irradiance gathered.
+    /// Σ A_i (1 − ρ_i) H_i: the irradiance H_i the system gives, less what is reflected.
     pub absorbed: f64,
     /// Σ A_i B_i × (escaped weight of row i): the power leaving into no patch.
     pub escaped: f64,
@@ -64,15 +81,63 @@ pub struct Energy {
 #[derive(Clone, Debug, Serialize)]
 pub struct Solution {
     pub method: Method,
+    pub system: System,
     /// Per patch, RGB.
     #[serde(skip)]
     pub b: Vec<[f64; 3]>,
     /// Sweeps (Gauss-Seidel) or shots (shooting).
     pub iterations: usize,
-    /// max_i,c |E + ρ F B − B| / max E at the end.
+    /// max_i,c |E + ρ H − B| / max E at the end.
     pub residual: f64,
     pub converged: bool,
     pub energy: Energy,
+}
+
+/// The system as incoming lists: H_j = Σ w B_k over `inc[j]` = [(k, w)], k ascending.
+struct Links {
+    inc: Vec<Vec<(u32, f64)>>,
+}
+
+impl Links {
+    fn new(m: &FormMatrix, scene: &Scene, system: System) -> Links {
+        let inc = match system {
+            System::Gather => m.rows.iter().map(|r| r.entries.clone()).collect(),
+            System::Power => {
+                let area: Vec<f64> = scene.patches.iter().map(|q| q.area()).collect();
+                let mut inc: Vec<Vec<(u32, f64)>> = vec![Vec::new(); m.n];
+                for r in &m.rows {
+                    let i = r.source as usize;
+                    for &(j, f) in &r.entries {
+                        inc[j as usize].push((r.source, f * area[i] / area[j as usize]));
+                    }
+                }
+                inc
+            }
+        };
+        Links { inc }
+    }
+
+    /// H_j, summed in list order.
+    fn irradiance(&self, b: &[[f64; 3]], j: usize) -> [f64; 3] {
+        let mut h = [0.0; 3];
+        for &(k, w) in &self.inc[j] {
+            for c in 0..3 {
+                h[c] += w * b[k as usize][c];
+            }
+        }
+        h
+    }
+
+    /// The outgoing lists: out[k] = [(j, w)] for every (k, w) in inc[j], j ascending.
+    fn outgoing(&self) -> Vec<Vec<(u32, f64)>> {
+        let mut out: Vec<Vec<(u32, f64)>> = vec![Vec::new(); self.inc.len()];
+        for (j, l) in self.inc.iter().enumerate() {
+            for &(k, w) in l {
+                out[k as usize].push((j as u32, w));
+            }
+        }
+        out
+    }
 }
 
 fn emission(scene: &Scene) -> Vec<[f64; 3]> {
@@ -83,42 +148,46 @@ fn reflectance(scene: &Scene) -> Vec<[f64; 3]> {
     scene.patches.iter().map(|p| p.reflectance.rgb()).collect()
 }
 
-/// (F B)_i, gathered in id order.
-fn gather(m: &FormMatrix, b: &[[f64; 3]], i: usize) -> [f64; 3] {
-    let mut h = [0.0; 3];
-    for &(j, f) in &m.rows[i].entries {
-        for c in 0..3 {
-            h[c] += f * b[j as usize][c];
-        }
+fn emission_scale(e: &[[f64; 3]]) -> f64 {
+    let scale = e.iter().flatten().fold(0.0f64, |a, &x| a.max(x));
+    if scale > 0.0 {
+        scale
+    } else {
+        1.0
     }
-    h
 }
 
-/// The residual max_i,c |E + ρ F B − B| over max E (1 when nothing emits).
-pub fn residual(m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> f64 {
+/// The residual max_i,c |E + ρ H − B| over max E (1 when nothing emits) in `system`.
+pub fn residual(m: &FormMatrix, scene: &Scene, system: System, b: &[[f64; 3]]) -> f64 {
+    residual_of(&Links::new(m, scene, system), scene, b)
+}
+
+fn residual_of(l: &Links, scene: &Scene, b: &[[f64; 3]]) -> f64 {
     let e = emission(scene);
     let rho = reflectance(scene);
-    let scale = e.iter().flatten().fold(0.0f64, |a, &x| a.max(x));
-    let scale = if scale > 0.0 { scale } else { 1.0 };
-    (0..m.n)
+    (0..l.inc.len())
         .map(|i| {
-            let h = gather(m, b, i);
+            let h = l.irradiance(b, i);
             (0..3)
                 .map(|c| (e[i][c] + rho[i][c] * h[c] - b[i][c]).abs())
                 .fold(0.0f64, f64::max)
         })
         .fold(0.0f64, f64::max)
-        / scale
+        / emission_scale(&e)
 }
 
-/// The energy balance of `b`.
-pub fn energy(m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> Energy {
+/// The energy balance of `b` in `system`.
+pub fn energy(m: &FormMatrix, scene: &Scene, system: System, b: &[[f64; 3]]) -> Energy {
+    energy_of(&Links::new(m, scene, system), m, scene, b)
+}
+
+fn energy_of(l: &Links, m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> Energy {
     let (mut emitted, mut leaving, mut absorbed, mut escaped, mut back) = (0.0, 0.0, 0.0, 0.0, 0.0);
     for (i, p) in scene.patches.iter().enumerate() {
         let a = p.area();
         let e = p.emission.rgb();
         let rho = p.reflectance.rgb();
-        let h = gather(m, b, i);
+        let h = l.irradiance(b, i);
         for c in 0..3 {
             emitted += a * e[c] / 3.0;
             leaving += a * b[i][c] / 3.0;
@@ -141,8 +210,8 @@ pub fn energy(m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> Energy {
     }
 }
 
-/// Solves B = E + ρ F B for the full matrix `m` of `scene`. `Error::Param` when the matrix
-/// is not full or a parameter is out of range.
+/// Solves the matrix `m` of `scene` in `p.system`. `Error::Param` when the matrix is not
+/// full or a parameter is out of range.
 pub fn solve(m: &FormMatrix, scene: &Scene, p: SolveParams) -> Result<Solution> {
     if !m.is_full() || m.n != scene.patches.len() {
         return Err(Error::param(
@@ -163,35 +232,37 @@ pub fn solve(m: &FormMatrix, scene: &Scene, p: SolveParams) -> Result<Solution> 
     if p.max_iter == 0 {
         return Err(Error::param("max_iter", "0 must be at least 1".to_string()));
     }
+    let l = Links::new(m, scene, p.system);
     let (b, iterations) = match p.method {
-        Method::Gs => gauss_seidel(m, scene, p),
-        Method::Shoot => shoot(m, scene, p),
+        Method::Gs => gauss_seidel(&l, scene, p),
+        Method::Shoot => shoot(&l, scene, p),
     };
-    let residual = residual(m, scene, &b);
+    let residual = residual_of(&l, scene, &b);
     Ok(Solution {
         method: p.method,
+        system: p.system,
         iterations,
         residual,
         converged: residual <= p.tol,
-        energy: energy(m, scene, &b),
+        energy: energy_of(&l, m, scene, &b),
         b,
     })
 }
 
-/// Gauss-Seidel: B_i ← E_i + ρ_i Σ_j F_ij B_j, rows in id order, until the residual is
-/// below the tolerance (checked after each sweep).
-fn gauss_seidel(m: &FormMatrix, scene: &Scene, p: SolveParams) -> (Vec<[f64; 3]>, usize) {
+/// Gauss-Seidel: B_i ← E_i + ρ_i H_i, patches in id order, until the residual is below
+/// the tolerance (checked after each sweep).
+fn gauss_seidel(l: &Links, scene: &Scene, p: SolveParams) -> (Vec<[f64; 3]>, usize) {
     let e = emission(scene);
     let rho = reflectance(scene);
     let mut b = e.clone();
     for sweep in 1..=p.max_iter {
-        for i in 0..m.n {
-            let h = gather(m, &b, i);
+        for i in 0..b.len() {
+            let h = l.irradiance(&b, i);
             for c in 0..3 {
                 b[i][c] = e[i][c] + rho[i][c] * h[c];
             }
         }
-        if residual(m, scene, &b) <= p.tol {
+        if residual_of(l, scene, &b) <= p.tol {
             return (b, sweep);
         }
     }
@@ -200,30 +271,25 @@ fn gauss_seidel(m: &FormMatrix, scene: &Scene, p: SolveParams) -> (Vec<[f64; 3]>
 
 /// Southwell shooting on the same system: U (unshot radiosity) starts at E; each shot takes
 /// the patch i with the most unshot power max_c A_i |U_i,c| (ties to the lower id), adds
-/// ρ_j F_ji U_i to B_j and U_j for every j (column i of F; for a reciprocal matrix
-/// F_ji = A_i F_ij / A_j, the classic form) and sets U_i to 0. Stops when the unshot
-/// radiosity is below the tolerance; the residual of this system is exactly U.
-fn shoot(m: &FormMatrix, scene: &Scene, p: SolveParams) -> (Vec<[f64; 3]>, usize) {
+/// ρ_j w U_i to B_j and U_j for every j that i reaches with weight w (in `power`, w =
+/// F_ij A_i / A_j: Cohen's progressive refinement along the shooter's own row) and sets
+/// U_i to 0. Stops when the unshot radiosity is below the tolerance; the residual of the
+/// system is exactly U.
+fn shoot(l: &Links, scene: &Scene, p: SolveParams) -> (Vec<[f64; 3]>, usize) {
     let e = emission(scene);
     let rho = reflectance(scene);
     let area: Vec<f64> = scene.patches.iter().map(|q| q.area()).collect();
-    let scale = e.iter().flatten().fold(0.0f64, |a, &x| a.max(x));
-    let scale = if scale > 0.0 { scale } else { 1.0 };
-    // Columns: col[i] = [(j, F_ji)], j ascending.
-    let mut col: Vec<Vec<(u32, f64)>> = vec![Vec::new(); m.n];
-    for r in &m.rows {
-        for &(i, f) in &r.entries {
-            col[i as usize].push((r.source, f));
-        }
-    }
+    let scale = emission_scale(&e);
+    let out = l.outgoing();
+    let n = out.len();
     let mut b = e.clone();
     let mut u = e;
-    let max_shots = p.max_iter.saturating_mul(m.n.max(1));
+    let max_shots = p.max_iter.saturating_mul(n.max(1));
     for shot in 0..max_shots {
         let mut best = 0usize;
         let mut best_power = -1.0f64;
         let mut max_u = 0.0f64;
-        for i in 0..m.n {
+        for i in 0..n {
             let ui = u[i].iter().fold(0.0f64, |a, &x| a.max(x.abs()));
             max_u = max_u.max(ui);
             let pw = area[i] * ui;
@@ -237,10 +303,10 @@ fn shoot(m: &FormMatrix, scene: &Scene, p: SolveParams) -> (Vec<[f64; 3]>, usize
         }
         let ui = u[best];
         u[best] = [0.0; 3];
-        for &(j, f) in &col[best] {
+        for &(j, w) in &out[best] {
             let j = j as usize;
             for c in 0..3 {
-                let d = rho[j][c] * f * ui[c];
+                let d = rho[j][c] * w * ui[c];
                 b[j][c] += d;
                 u[j][c] += d;
             }

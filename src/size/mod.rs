@@ -202,7 +202,7 @@ impl Bench<'_> {
         let host = HostFixed::new(self.scene, self.file, dp, self.cell)?;
         let src = self.spec.source;
         let hits = self.rays.rays.iter().enumerate().map(|(i, r)| {
-            let rec = host.ray(i as u32, r)?;
+            let rec = host.ray_from(i as u32, r, src)?;
             let mut e = Exceptions::default();
             host.scene
                 .nearest_grid(&rec, Some(src), &mut e)
@@ -419,7 +419,7 @@ pub fn size(
     let diag = ext.length();
     let mut tmax = 0.0f64;
     for (i, r) in bench.rays.rays.iter().enumerate() {
-        if let Some(rec) = host.ray(i as u32, r) {
+        if let Some(rec) = host.ray_from(i as u32, r, spec.source) {
             let mut x = Exceptions::default();
             if let Some(h) = host.scene.nearest_grid(&rec, Some(spec.source), &mut x).0 {
                 tmax = tmax.max(f.t.to_f64(h.t as i128));
