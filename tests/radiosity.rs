@@ -209,10 +209,10 @@ fn grey_box_energy(model: Model) {
             .map(|(p, b)| p.area() * b[0])
             .sum()
     };
-    let p = SolveParams::default();
-    let g = SolveParams {
-        system: System::Gather,
-        ..p
+    let g = SolveParams::default();
+    let p = SolveParams {
+        system: System::Power,
+        ..g
     };
     let (scene, m) = grey_box(model, &[0, 1, 2, 3, 4, 5]);
     for r in &m.rows {

@@ -28,9 +28,9 @@ pub struct RadiosityArgs {
     /// The solver: Gauss-Seidel, or progressive refinement by Southwell shooting.
     #[arg(long, value_enum, default_value_t = Method::Gs)]
     pub method: Method,
-    /// The system: `power` spreads each patch's power along its own row (energy conserved
-    /// exactly), `gather` is B = E + ρFB (exact in energy only for a reciprocal matrix).
-    #[arg(long, value_enum, default_value_t = System::Power)]
+    /// The system: `gather` is B = E + ρFB (exact in energy only for a reciprocal matrix),
+    /// `power` spreads each patch's power along its own row (energy conserved exactly).
+    #[arg(long, value_enum, default_value_t = System::Gather)]
     pub system: System,
     /// Stop when the residual max |E + ρH − B| / max E is at most this.
     #[arg(long, default_value_t = SolveParams::default().tol)]

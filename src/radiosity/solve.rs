@@ -1,8 +1,9 @@
 //! The radiosity solution per RGB channel, B = E + ρ H with H the irradiance the matrix
-//! gives, in one of two systems: `power` (default) distributes the power leaving each patch
-//! along its own row — the rays the machine cast from it — so Σ power is conserved exactly
-//! whatever the sampling error; `gather` is the textbook B = E + ρ F B (rows of the
-//! receiver), exact in energy only for a reciprocal matrix. Each is solved by Gauss-Seidel
+//! gives, in one of two systems: `gather` (default) is the textbook B = E + ρ F B (each
+//! patch gathers along its own row), exact in energy only for a reciprocal matrix; `power`
+//! distributes the power leaving each patch along its own row — the rays the machine cast
+//! from it — so Σ power is conserved exactly whatever the sampling error, at the price of
+//! more noise on small patches (few rays from other patches land on them). Each is solved by Gauss-Seidel
 //! or by progressive refinement (Southwell shooting); both methods reach the same system's
 //! solution to the tolerance. The energy balance and the per-patch CSV.
 
@@ -28,12 +29,12 @@ pub enum Method {
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum System {
-    /// A_j B_j = A_j E_j + ρ_j Σ_i F_ij A_i B_i: patch i's power goes out along row i (the
-    /// rays cast from i), so emitted = absorbed + escaped + back exactly.
-    Power,
     /// B_i = E_i + ρ_i Σ_j F_ij B_j: patch i gathers along its row; the energy balance is
     /// off by the matrix's departure from reciprocity (A_i F_ij = A_j F_ji).
     Gather,
+    /// A_j B_j = A_j E_j + ρ_j Σ_i F_ij A_i B_i: patch i's power goes out along row i (the
+    /// rays cast from i), so emitted = absorbed + escaped + back exactly.
+    Power,
 }
 
 /// When to stop: the residual max_i,c |E + ρ H − B| over max E is at most `tol`, or
@@ -50,7 +51,7 @@ impl Default for SolveParams {
     fn default() -> Self {
         SolveParams {
             method: Method::Gs,
-            system: System::Power,
+            system: System::Gather,
             tol: 1e-12,
             max_iter: 10_000,
         }

@@ -207,10 +207,13 @@ pub fn interpolate(s: &RaySpace, e: &Edges) -> Interpolated {
 }
 
 /// Stage 5, divide: t = num/den rounded to the t format (rounding point B). `None` for no
-/// hit: t ≤ 0 (behind or at the origin) or beyond the t format (counted as saturated).
+/// hit: t < 0 (behind the origin) or beyond the t format (counted as saturated). A patch
+/// through the origin (t = 0) is hit: the host starts a ray off its source's plane
+/// (`ray_from`), so what lies there is a patch stacked on the source within an LSB — the
+/// back of cornell's light, under the ceiling — which the float tracer meets too.
 #[inline]
 pub fn divide(q: &Interpolated, f: &Formats, exc: &mut Exceptions) -> Option<i64> {
-    if !q.valid || q.num <= 0 {
+    if !q.valid || q.num < 0 {
         return None;
     }
     if q.den < (1i128 << f.coord.frac_bits) {
@@ -226,9 +229,6 @@ pub fn divide(q: &Interpolated, f: &Formats, exc: &mut Exceptions) -> Option<i64
     };
     if t > f.t.max_raw() {
         exc.t_saturated += 1;
-        return None;
-    }
-    if t <= 0 {
         return None;
     }
     Some(t as i64)
