@@ -24,7 +24,8 @@ pub enum SceneCmd {
         out: PathBuf,
     },
     /// Convert a Wavefront OBJ file into a validated JSON scene (faces with more than 4
-    /// vertices become triangle fans).
+    /// vertices, and faces that are not planar and convex, become triangle fans; the names
+    /// are kept).
     Import {
         /// The OBJ file.
         file: PathBuf,
@@ -41,8 +42,8 @@ pub enum SceneCmd {
         edit: SceneEditArgs,
     },
     /// Validate a scene (JSON or OBJ) and print its statistics, its names, and warnings
-    /// (an OBJ file's missing material library, faces split because they were not planar
-    /// and convex, faces that face out of the enclosure).
+    /// (an OBJ file's missing material library, its faces split because they were not
+    /// planar and convex, its faces that face out of the enclosure).
     Info {
         /// The scene file (.json or .obj).
         file: PathBuf,
