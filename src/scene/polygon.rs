@@ -165,9 +165,11 @@ fn check_planar_convex(v: &[DVec3], normal: DVec3, diam: f64) -> Result<(), Stri
     Ok(())
 }
 
-/// Most fan apexes [`split`] tries: the first this many vertices (every vertex of a face
-/// up to this size), so the split stays linear in the vertices.
-pub const FAN_APEXES: usize = 64;
+/// Most vertices of a face [`split`] mends: a larger face must be planar and convex as it
+/// is (it is then fanned from its first vertex, as before). Trying every apex is quadratic
+/// in the vertices, and a huge face that fails the check (a 200,000-gon whose turns are too
+/// small to tell from straight) would become 200,000 slivers.
+pub const FAN_MAX_VERTICES: usize = 64;
 
 /// How [`split`] cuts a face: the fan of triangles `(apex, apex + j, apex + j + 1)`
 /// (indices modulo the vertex count), `j = 1 ..= n - 2`.
@@ -189,10 +191,10 @@ impl Fan {
 
 /// Splits a face of 3 or more vertices if it must be: `Ok(None)` when it passes [`check`]
 /// as it is; `Ok(Some(fan))` when it is not planar or not convex but a fan of triangles
-/// mends it; `Err` (what is wrong) for bad points, coincident vertices, zero area, or a face
-/// that no fan mends (a bow tie, a star).
+/// mends it; `Err` (what is wrong) for bad points, coincident vertices, zero area, a face of
+/// more than [`FAN_MAX_VERTICES`] vertices, or a face that no fan mends (a bow tie, a star).
 ///
-/// The rule: among the fans from each of the first [`FAN_APEXES`] vertices, those whose
+/// The rule: among the fans from each vertex, those whose
 /// triangles each pass the check, all face the side of the face's Newell normal, and sweep
 /// less than a full turn about the apex (so they do not overlap); of those, the one whose
 /// largest fold between neighbouring triangles is smallest — the split closest to planar
@@ -206,8 +208,13 @@ pub fn split(v: &[DVec3]) -> Result<Option<Fan>, String> {
         Err(why) => why,
     };
     let n = local.len();
+    if n > FAN_MAX_VERTICES {
+        return Err(format!(
+            "{why} (a face of more than {FAN_MAX_VERTICES} vertices is split only when it is planar and convex)"
+        ));
+    }
     let mut best: Option<Fan> = None;
-    for apex in 0..n.min(FAN_APEXES) {
+    for apex in 0..n {
         let fan = Fan { apex, fold: 0.0 };
         if let Some(fold) = fan_fold(&local, &fan, normal) {
             if best.is_none_or(|b| fold < b.fold) {
@@ -263,6 +270,9 @@ mod tests {
         assert!((size(&v) - 2.0 * 2f64.sqrt()).abs() < 1e-9);
         let e = check(&v).unwrap_err();
         assert!(e.contains("not convex"), "{e}");
+        // Nor is it split into 199,998 slivers: too large a face to mend.
+        let e = split(&v).unwrap_err();
+        assert!(e.contains("more than 64 vertices"), "{e}");
         // A coarser circle is valid.
         let v: Vec<DVec3> = (0..1000)
             .map(|k| {
