@@ -59,6 +59,16 @@ fn cell(scene: &Scene) -> f64 {
     )
 }
 
+/// The paper's 969 ring rays from `source`, seed 1 (the commands' default).
+fn rings(source: u32) -> shellsim::reference::rays::RaySpec {
+    shellsim::reference::rays::RaySpec {
+        source,
+        rays: 969,
+        directions: shellsim::reference::rays::Directions::Rings,
+        seed: 1,
+    }
+}
+
 #[test]
 fn import_reads_the_file_as_written() {
     let (s, r) = obj::import(&path(), &obj::ImportOptions::default()).unwrap();
@@ -133,12 +143,7 @@ fn scene_info_shows_names_warnings_and_the_emitter() {
 fn reference_from_the_light() {
     let scene = load(Edits::default());
     let src = id(&scene, "light");
-    let spec = shellsim::reference::rays::RaySpec {
-        source: src,
-        rays: 969,
-        directions: shellsim::reference::rays::Directions::Rings,
-        seed: 1,
-    };
+    let spec = rings(src);
     let r = shellsim::reference::cast::run_scene(&scene, &path(), &spec, cell(&scene)).unwrap();
     let f = |name: &str| -> f64 {
         let ids = scene.named(name);
@@ -171,12 +176,7 @@ fn check_explains_every_mismatch(source: &str) {
     let scene = load(Edits::default());
     let src = source.parse::<PatchRef>().unwrap();
     let src = src.resolve(&scene, &path()).unwrap();
-    let spec = shellsim::reference::rays::RaySpec {
-        source: src,
-        rays: 969,
-        directions: shellsim::reference::rays::Directions::Rings,
-        seed: 1,
-    };
+    let spec = rings(src);
     let dp = shellsim::config::built_in().datapath;
     let r = shellsim::fixed::check::check_scene(&scene, &path(), dp, &spec, cell(&scene))
         .unwrap_or_else(|e| panic!("{e}"));
