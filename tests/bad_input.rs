@@ -200,13 +200,18 @@ cases! {
         "{\"name\": \"t\", \"bounds\": [[0, 0, 0], [1, 1, 1]], \"patches\": []}" => 2, ["no patches"];
 
     // --- OBJ: face geometry. Face 4 is patch 3, on line 12, or 13 after one extra vertex.
+    // Faces that are not planar and convex but not broken are split, said once.
     obj_non_planar_quad: "nonplanar.obj",
-        obj_with("f 1 2 7 4\n") => 2, ["face 4 (line 12, patch 3)", "not planar"];
+        obj_with("f 1 2 7 4\n") => 0, ["patches      5 (", "warning      1 face is not planar and convex: split into 2 triangles"];
     obj_non_convex_quad: "nonconvex.obj",
-        obj_with("v 0.3 0.3 0\nf 1 2 9 4\n") => 2, ["face 4 (line 13, patch 3)", "not convex"];
+        obj_with("v 0.3 0.3 0\nf 1 2 9 4\n") => 0, ["patches      5 (", "1 face is not planar and convex"];
     obj_non_convex_pentagon: "nonconvex5.obj",
-        obj_with("v 0.3 0.3 0\nf 1 2 9 3 4\n")
-        => 2, ["face 4 (line 13, patches 3 to 5)", "not convex"];
+        obj_with("v 0.3 0.3 0\nf 1 2 9 3 4\n") => 0, ["patches      6 (", "1 face is not planar and convex: split into 3 triangles"];
+    obj_bow_tie_quad: "bowtie.obj",
+        obj_with("v 2 0 0\nf 1 9 4 3\n") => 2, ["face 4 (line 13, patch 3)", "no fan of triangles"];
+    obj_star_pentagon: "star.obj",
+        obj_with("v 0.5 1.5 0\nv 1.2 -0.6 0\nv -0.2 0.6 0\nv 1.2 0.6 0\nv -0.2 -0.6 0\nf 9 10 11 12 13\n")
+        => 2, ["face 4 (line 17, patches 3 to 5)", "no fan of triangles"];
     obj_zero_area_triangle: "collinear.obj",
         obj_with("v 0.5 0 0\nf 1 9 2\n") => 2, ["face 4 (line 13, patch 3)", "zero area"];
     obj_coincident_vertices: "coincident.obj",

@@ -4,20 +4,66 @@
 
 use crate::config::{self, ConfigSource};
 use crate::error::{Error, Result};
-use crate::scene::Scene;
+use crate::scene::{self, Edits, Flip, Loaded, PatchRef, Scene};
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::DatapathConfig;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// The input scene and the source patch (default 0).
 #[derive(clap::Args, Debug, Clone)]
 pub struct SceneSourceArgs {
-    /// The scene file (.json or .obj).
-    #[arg(long)]
-    pub scene: PathBuf,
-    /// The source patch id.
-    #[arg(long, default_value_t = 0)]
-    pub source: u32,
+    #[command(flatten)]
+    pub file: SceneFileArg,
+    /// The source patch: its id, or the name of its group, object or material (OBJ `g`,
+    /// `o`, `usemtl`) when that names one patch.
+    #[arg(long, default_value = "0")]
+    pub source: PatchRef,
+}
+
+impl SceneSourceArgs {
+    /// The scene file.
+    pub fn path(&self) -> &Path {
+        &self.file.scene
+    }
+
+    /// Loads the scene (see [`SceneFileArg::load`]) and resolves `--source`.
+    pub fn load(&self) -> Result<(Scene, u32)> {
+        let scene = self.file.load()?;
+        let source = self.source.resolve(&scene, &self.file.scene)?;
+        Ok((scene, source))
+    }
+}
+
+/// Changes to a scene as it is loaded, for files that lack what the model needs.
+#[derive(clap::Args, Debug, Clone, Default)]
+pub struct SceneEditArgs {
+    /// Make the patches of this group, object or material name (OBJ `g`, `o`, `usemtl`)
+    /// emitters, with emission 1 (for files without `Ke` in a material library).
+    #[arg(long, value_name = "NAME")]
+    pub emitter: Option<String>,
+    /// Turn faces over (reverse their vertex order): all of them, or those of group,
+    /// object or material NAME (`scene info` counts the faces that face outward).
+    #[arg(long, value_name = "NAME", num_args = 0..=1)]
+    pub flip: Option<Option<String>>,
+}
+
+impl SceneEditArgs {
+    /// The library's form.
+    pub fn edits(&self) -> Edits {
+        Edits {
+            emitter: self.emitter.clone(),
+            flip: self.flip.as_ref().map(|f| match f {
+                None => Flip::All,
+                Some(name) => Flip::Named(name.clone()),
+            }),
+        }
+    }
+
+    /// Loads `path` with the edits; its warnings (an OBJ file's missing material library,
+    /// faces split because they were not planar and convex) are for the caller to show.
+    pub fn load_with_warnings(&self, path: &Path) -> Result<Loaded> {
+        scene::load_with(path, &self.edits())
+    }
 }
 
 /// A machine configuration file.
@@ -101,18 +147,25 @@ pub enum OnOff {
 }
 
 /// Names the flag in a library error about a parameter: `Error::Param` `shell_radius` becomes
-/// `--shell-radius ...`, a bad source patch (place `source`) is reported at `--source`.
+/// `--shell-radius ...`, a bad source patch (place `source`) is reported at `--source`, an
+/// unknown name at `--emitter` or `--flip`.
 pub fn name_flags(e: Error) -> Error {
     match e {
         Error::Param { key, what } => Error::Usage(format!("--{} {what}", key.replace('_', "-"))),
-        Error::Input { file, place, what } if place == "source" => Error::Input {
-            file,
-            place: "--source".into(),
-            what,
-        },
+        Error::Input { file, place, what } if FLAG_PLACES.contains(&place.as_str()) => {
+            Error::Input {
+                file,
+                place: format!("--{place}"),
+                what,
+            }
+        }
         e => e,
     }
 }
+
+/// The places of a library error that are a flag's value: a bad source patch, a name of
+/// `--emitter` or `--flip` that names no patch.
+const FLAG_PLACES: &[&str] = &["source", "emitter", "flip"];
 
 /// Which rays a form-factor matrix job casts and on which configuration (`matrix`,
 /// `radiosity`).
@@ -191,4 +244,22 @@ pub struct SceneFileArg {
     /// The scene file (.json or .obj).
     #[arg(long)]
     pub scene: PathBuf,
+    #[command(flatten)]
+    pub edit: SceneEditArgs,
+}
+
+impl SceneFileArg {
+    /// Loads the scene with the edits; warnings go to standard error, once each.
+    pub fn load(&self) -> Result<Scene> {
+        load_scene(&self.scene, &self.edit)
+    }
+}
+
+/// Loads `path` with `edit`, the warnings on standard error.
+pub fn load_scene(path: &Path, edit: &SceneEditArgs) -> Result<Scene> {
+    let loaded = edit.load_with_warnings(path)?;
+    for w in &loaded.warnings {
+        eprintln!("warning: {}: {}", path.display(), crate::error::shown(w));
+    }
+    Ok(loaded.scene)
 }

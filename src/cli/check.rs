@@ -6,7 +6,6 @@ use super::reference::ReferenceArgs;
 use crate::error::Result;
 use crate::fixed::check::{check_scene, CheckReport};
 use crate::output::check_outputs;
-use crate::scene::Scene;
 
 /// Arguments of `shellsim check`.
 #[derive(clap::Args, Debug)]
@@ -21,9 +20,9 @@ pub struct CheckArgs {
 pub fn run(a: &CheckArgs) -> Result<()> {
     let r = &a.rays;
     check_outputs(&r.outputs())?;
-    let scene = Scene::load(&r.scene)?;
+    let (scene, spec) = r.load()?;
     let cfg = a.datapath.resolve()?;
-    let report = check_scene(&scene, &r.scene, cfg, &r.spec(), r.grid.for_scene(&scene))?;
+    let report = check_scene(&scene, &r.input.scene, cfg, &spec, r.grid.for_scene(&scene))?;
     print_check(&report);
     if let Some(out) = &r.json {
         report.write_json(out, cfg)?;

@@ -6,7 +6,6 @@ use crate::error::Result;
 use crate::experiment::outputs::{self, experiment, Which};
 use crate::experiment::Workload;
 use crate::output::{check_outputs, Output};
-use crate::scene::Scene;
 use std::path::PathBuf;
 
 /// Arguments of `shellsim experiment`.
@@ -26,7 +25,7 @@ pub struct ExperimentArgs {
 
 /// Runs `shellsim experiment`.
 pub fn run(a: &ExperimentArgs) -> Result<()> {
-    let scene = Scene::load(&a.input.scene)?;
+    let (scene, source) = a.input.load()?;
     let stem = outputs::stem_of_scene(a.which, &scene);
     check_outputs(&[
         Output::dir("--out", &a.out),
@@ -36,8 +35,8 @@ pub fn run(a: &ExperimentArgs) -> Result<()> {
     let base = config::load(&a.machine.source())?;
     let w = Workload {
         scene: &scene,
-        file: &a.input.scene,
-        source: a.input.source,
+        file: a.input.path(),
+        source,
         base: &base,
     };
     let out = experiment(a.which, &w)?;

@@ -6,7 +6,6 @@ use crate::config;
 use crate::error::Result;
 use crate::output::{check_outputs, outln, Output};
 use crate::radiosity::matrix::{self, Model, Summary};
-use crate::scene::Scene;
 use std::path::PathBuf;
 
 /// Arguments of `shellsim matrix`.
@@ -30,7 +29,7 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
         Output::file("--out", &a.out),
         Output::file("--out", &a.out.with_extension("json")),
     ])?;
-    let scene = Scene::load(&a.scene.scene)?;
+    let scene = a.scene.load()?;
     let cfg = config::load(&a.rays.machine.source())?;
     let spec = a.rays.spec(a.model, scene.patches.len())?;
     let start = std::time::Instant::now();

@@ -1,7 +1,7 @@
 //! `shellsim partition`: one partition run with its report, chart and schedule, or the
 //! committed figures (`--figures DIR`).
 
-use super::args::CellArg;
+use super::args::{load_scene, CellArg, SceneEditArgs};
 use crate::error::Result;
 use crate::output::{check_outputs, write_atomic, Output};
 use crate::paper::PAPER_RAYS;
@@ -12,7 +12,7 @@ use crate::partition::schedule::Schedule;
 use crate::partition::shells::ShellParams;
 use crate::partition::{partition, Config, Granularity};
 use crate::reference::tracer::Tracer;
-use crate::scene::Scene;
+use crate::scene::PatchRef;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -22,9 +22,12 @@ pub struct PartitionArgs {
     /// The scene file (.json or .obj).
     #[arg(long, required_unless_present = "figures")]
     pub scene: Option<PathBuf>,
-    /// The source patch id.
+    /// The source patch: its id, or the name of its group, object or material (OBJ `g`,
+    /// `o`, `usemtl`) when that names one patch.
     #[arg(long, required_unless_present = "figures")]
-    pub source: Option<u32>,
+    pub source: Option<PatchRef>,
+    #[command(flatten)]
+    pub edit: SceneEditArgs,
     /// Sections P: one per cluster (ICU); any count, not only powers of two.
     #[arg(long, required_unless_present = "figures")]
     pub sections: Option<usize>,
@@ -89,9 +92,10 @@ pub fn run(a: &PartitionArgs) -> Result<()> {
     .collect();
     check_outputs(&outputs)?;
     let file = a.scene.as_deref().expect("clap requires --scene");
-    let scene = Scene::load(file)?;
+    let scene = load_scene(file, &a.edit)?;
+    let source = a.source.as_ref().expect("clap requires --source");
     let cfg = Config {
-        source: a.source.expect("clap requires --source"),
+        source: source.resolve(&scene, file)?,
         sections: a.sections.expect("clap requires --sections"),
         ctus: a.ctus.expect("clap requires --ctus"),
         ratio: a.ratio.expect("clap requires --ratio"),

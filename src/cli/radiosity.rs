@@ -9,7 +9,6 @@ use crate::radiosity::job::{self, ImageSpec, JobSpec};
 use crate::radiosity::matrix::Model;
 use crate::radiosity::render::{Camera, Shading};
 use crate::radiosity::solve::{Method, SolveParams, System};
-use crate::scene::Scene;
 use std::path::PathBuf;
 
 /// Arguments of `shellsim radiosity`.
@@ -91,7 +90,7 @@ fn parse_compare(s: &str) -> Result<(Model, Model)> {
 /// Runs `shellsim radiosity`.
 pub fn run(a: &RadiosityArgs) -> Result<()> {
     check_outputs(&[Output::dir("--out", &a.out)])?;
-    let scene = Scene::load(&a.scene.scene)?;
+    let scene = a.scene.load()?;
     let camera = match &a.camera {
         Some(s) => Camera::parse(s).map_err(|w| Error::Usage(format!("--camera {s:?}: {w}")))?,
         None => Camera::default_for(&scene),

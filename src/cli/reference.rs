@@ -1,23 +1,23 @@
 //! `shellsim reference`: form factors from one source patch by the float reference tracer.
 
-use super::args::CellArg;
+use super::args::{CellArg, SceneFileArg};
 use crate::error::Result;
 use crate::output::{check_outputs, write_json, Output};
 use crate::paper::PAPER_RAYS;
 use crate::reference::cast::{self, ReferenceReport};
 use crate::reference::rays::{Directions, RaySpec};
-use crate::scene::Scene;
+use crate::scene::{PatchRef, Scene};
 use std::path::PathBuf;
 
 /// Arguments of `shellsim reference` (and the rays of `shellsim check`).
 #[derive(clap::Args, Debug)]
 pub struct ReferenceArgs {
-    /// The scene file (.json or .obj).
+    #[command(flatten)]
+    pub input: SceneFileArg,
+    /// The source patch: its id, or the name of its group, object or material (OBJ `g`,
+    /// `o`, `usemtl`) when that names one patch.
     #[arg(long)]
-    pub scene: PathBuf,
-    /// The source patch id.
-    #[arg(long)]
-    pub source: u32,
+    pub source: PatchRef,
     /// Number of rays.
     #[arg(long, default_value_t = PAPER_RAYS)]
     pub rays: usize,
@@ -43,10 +43,17 @@ impl ReferenceArgs {
             .collect()
     }
 
-    /// The rays asked for.
-    pub fn spec(&self) -> RaySpec {
+    /// Loads the scene and resolves `--source`: the scene and the rays asked for.
+    pub fn load(&self) -> Result<(Scene, RaySpec)> {
+        let scene = self.input.load()?;
+        let source = self.source.resolve(&scene, &self.input.scene)?;
+        Ok((scene, self.spec(source)))
+    }
+
+    /// The rays asked for, from patch `source`.
+    pub fn spec(&self, source: u32) -> RaySpec {
         RaySpec {
-            source: self.source,
+            source,
             rays: self.rays,
             directions: self.directions,
             seed: self.seed,
@@ -57,8 +64,8 @@ impl ReferenceArgs {
 /// Runs `shellsim reference`.
 pub fn run(a: &ReferenceArgs) -> Result<()> {
     check_outputs(&a.outputs())?;
-    let scene = Scene::load(&a.scene)?;
-    let report = cast::run_scene(&scene, &a.scene, &a.spec(), a.grid.for_scene(&scene))?;
+    let (scene, spec) = a.load()?;
+    let report = cast::run_scene(&scene, &a.input.scene, &spec, a.grid.for_scene(&scene))?;
     print_reference(&report, &scene);
     if let Some(out) = &a.json {
         write_json(out, &report)?;

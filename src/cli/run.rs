@@ -7,7 +7,6 @@ use crate::error::{Error, Result};
 use crate::machine::run::{execute, RunSpec, Waveform};
 use crate::machine::vcd::{ScopeFilter, VcdOptions, Window};
 use crate::output::{check_outputs, Output};
-use crate::scene::Scene;
 use std::path::PathBuf;
 
 /// Arguments of `shellsim run`.
@@ -60,13 +59,13 @@ pub struct RunArgs {
 pub fn run(a: &RunArgs) -> Result<()> {
     check_outputs(&a.outputs()?)?;
     crate::machine::vcd::set_wave_limit(a.wave_limit);
-    let scene = Scene::load(&a.input.scene)?;
+    let (scene, source) = a.input.load()?;
     let mut cfg = config::load(&a.machine.source())?;
     if let Some(b) = a.balance {
         cfg.balance.enabled = b == OnOff::On;
     }
     let spec = RunSpec {
-        source: a.input.source,
+        source,
         ratio: a.ratio,
         order: shellsim_hw::machine::TickOrder::Forward,
     };
@@ -79,7 +78,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
             },
         )
     });
-    let out = execute(&scene, &a.input.scene, &cfg, &spec, vcd, a.json.as_deref())?;
+    let out = execute(&scene, a.input.path(), &cfg, &spec, vcd, a.json.as_deref())?;
     if let Some(w) = &out.waveform {
         print_waveform(w);
     }

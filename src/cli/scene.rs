@@ -1,10 +1,11 @@
 //! `shellsim scene gen|import|info`.
 
-use super::args::CellArg;
+use super::args::{CellArg, SceneEditArgs};
 use crate::error::Result;
 use crate::output::{check_outputs, Output};
+use crate::reference::orient::outward_faces;
 use crate::reference::tracer::Tracer;
-use crate::scene::{gen, obj, Aabb, Scene};
+use crate::scene::{self, gen, obj, Aabb};
 use clap::Subcommand;
 use std::path::{Path, PathBuf};
 
@@ -23,7 +24,8 @@ pub enum SceneCmd {
         out: PathBuf,
     },
     /// Convert a Wavefront OBJ file into a validated JSON scene (faces with more than 4
-    /// vertices become triangle fans).
+    /// vertices, and faces that are not planar and convex, become triangle fans; the names
+    /// are kept).
     Import {
         /// The OBJ file.
         file: PathBuf,
@@ -36,21 +38,27 @@ pub enum SceneCmd {
         /// Reflectance of faces without a material.
         #[arg(long, default_value_t = 0.5)]
         reflectance: f64,
+        #[command(flatten)]
+        edit: SceneEditArgs,
     },
-    /// Validate a scene (JSON or OBJ) and print its statistics.
+    /// Validate a scene (JSON or OBJ) and print its statistics, its names, and warnings
+    /// (an OBJ file's missing material library, its faces split because they were not
+    /// planar and convex, its faces that face out of the enclosure).
     Info {
         /// The scene file (.json or .obj).
         file: PathBuf,
         /// The grid for the grid statistics.
         #[command(flatten)]
         grid: CellArg,
+        #[command(flatten)]
+        edit: SceneEditArgs,
     },
 }
 
 /// Runs `shellsim scene ...`.
 pub fn run(c: SceneCmd) -> Result<()> {
     match c {
-        SceneCmd::Info { file, grid } => info(&file, grid),
+        SceneCmd::Info { file, grid, edit } => info(&file, grid, &edit),
         SceneCmd::Gen { kind, seed, out } => {
             check_outputs(&[Output::file("--out", &out)])?;
             let scene = gen::generate(kind, seed);
@@ -69,6 +77,7 @@ pub fn run(c: SceneCmd) -> Result<()> {
             out,
             bounds,
             reflectance,
+            edit,
         } => {
             check_outputs(&[Output::file("--out", &out)])?;
             let opts = obj::ImportOptions {
@@ -76,7 +85,8 @@ pub fn run(c: SceneCmd) -> Result<()> {
                 reflectance,
                 ..Default::default()
             };
-            let (scene, report) = obj::import(&file, &opts)?;
+            let (mut scene, report) = obj::import(&file, &opts)?;
+            edit.edits().apply(&mut scene, &file)?;
             for w in &report.warnings {
                 eprintln!("warning: {}", crate::error::shown(w));
             }
@@ -103,9 +113,10 @@ fn parse_bounds(s: &str) -> std::result::Result<Aabb, String> {
     })
 }
 
-fn info(file: &Path, grid: CellArg) -> Result<()> {
-    let scene = Scene::load(file)?;
-    let tracer = Tracer::new(&scene, grid.for_scene(&scene)).map_err(|e| e.for_scene(file))?;
+fn info(file: &Path, grid: CellArg, edit: &SceneEditArgs) -> Result<()> {
+    let loaded = edit.load_with_warnings(file)?;
+    let scene = &loaded.scene;
+    let tracer = Tracer::new(scene, grid.for_scene(scene)).map_err(|e| e.for_scene(file))?;
     let g = &tracer.grid;
     let tris = scene
         .patches
@@ -141,5 +152,70 @@ fn info(file: &Path, grid: CellArg) -> Result<()> {
         g.entries(),
         g.entries() as f64 / scene.patches.len() as f64
     );
+    let names = scene.names();
+    if !names.is_empty() {
+        crate::output::outln!("names        {}", names_line(&names));
+    }
+    for w in &loaded.warnings {
+        crate::output::outln!("warning      {}", crate::error::shown(w));
+    }
+    // Only OBJ files: their winding is whatever the modeller left; JSON scenes come from
+    // shellsim's generators (the stress scenes orient faces at random on purpose) or from
+    // `scene import`, whose OBJ file this warned about.
+    let outward = if scene::is_obj(file) {
+        outward_faces(scene, &tracer)
+    } else {
+        Vec::new()
+    };
+    if !outward.is_empty() {
+        crate::output::outln!(
+            "warning      {} of {} faces face out of the enclosure (patches {}): turn them over with --flip NAME, or --flip for all",
+            outward.len(),
+            scene.patches.len(),
+            ranges(&outward, 24)
+        );
+    }
     Ok(())
+}
+
+/// Most names `scene info` lists.
+const NAMES_SHOWN: usize = 24;
+
+/// `floor 0; leftWall 5-6; ...`: each name with its patches.
+fn names_line(names: &[(&str, Vec<u32>)]) -> String {
+    let mut parts: Vec<String> = names
+        .iter()
+        .take(NAMES_SHOWN)
+        .map(|(n, ids)| format!("{} {}", crate::error::shown(n), ranges(ids, 8)))
+        .collect();
+    if names.len() > NAMES_SHOWN {
+        parts.push(format!("and {} more names", names.len() - NAMES_SHOWN));
+    }
+    parts.join("; ")
+}
+
+/// Ascending ids as ranges, `0, 3-5, 9`, the first `most` ranges and a count of the rest.
+fn ranges(ids: &[u32], most: usize) -> String {
+    let mut runs: Vec<(u32, u32)> = Vec::new();
+    for &id in ids {
+        match runs.last_mut() {
+            Some((_, hi)) if *hi + 1 == id => *hi = id,
+            _ => runs.push((id, id)),
+        }
+    }
+    let mut parts: Vec<String> = runs
+        .iter()
+        .take(most)
+        .map(|&(lo, hi)| {
+            if lo == hi {
+                lo.to_string()
+            } else {
+                format!("{lo}-{hi}")
+            }
+        })
+        .collect();
+    if runs.len() > most {
+        parts.push(format!("… ({} more)", runs.len() - most));
+    }
+    parts.join(", ")
 }

@@ -6,7 +6,6 @@ use crate::config;
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, write_atomic, write_json, Output};
 use crate::paper::PAPER_RAYS;
-use crate::scene::Scene;
 use crate::size::{markdown, size, toml, Against, SizeSpec};
 use std::path::PathBuf;
 
@@ -51,7 +50,7 @@ pub fn run(a: &SizeArgs) -> Result<()> {
         outs.extend(files.iter().map(|f| Output::file("--out", &dir.join(f))));
         check_outputs(&outs)?;
     }
-    let scene = Scene::load(&a.input.scene)?;
+    let (scene, source) = a.input.load()?;
     let base = config::load(&a.machine.source())?;
     let ratio = match a.rays {
         Some(n) if n == 0 || n % PAPER_RAYS != 0 => {
@@ -69,14 +68,14 @@ pub fn run(a: &SizeArgs) -> Result<()> {
         )));
     }
     let spec = SizeSpec {
-        source: a.input.source,
+        source,
         target_error: a.target_error,
         against: a.against,
         ratio,
         max_cycles: a.max_cycles,
         tolerance: a.tolerance,
     };
-    let r = size(&scene, &a.input.scene, &base, &spec)?;
+    let r = size(&scene, a.input.path(), &base, &spec)?;
     let md = markdown(&r);
     if let Some(dir) = &a.out {
         write_atomic(&dir.join("machine.toml"), toml(&r).as_bytes())?;

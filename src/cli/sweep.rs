@@ -5,7 +5,6 @@ use crate::error::{Error, Result};
 use crate::fixed::sweep;
 use crate::output::{check_outputs, file_stem, Output};
 use crate::reference::rays::{Directions, RaySpec};
-use crate::scene::Scene;
 use clap::Subcommand;
 use std::path::PathBuf;
 
@@ -45,10 +44,10 @@ pub struct BitsArgs {
 /// Runs `shellsim sweep ...`.
 pub fn run(c: &SweepCmd) -> Result<()> {
     let SweepCmd::Bits(a) = c;
-    let file = &a.input.scene;
-    let scene = Scene::load(file)?;
+    let file = a.input.path();
+    let (scene, source) = a.input.load()?;
     let spec = RaySpec {
-        source: a.input.source,
+        source,
         rays: a.rays,
         directions: a.directions,
         seed: a.seed,

@@ -316,11 +316,20 @@ fn shoot(l: &Links, scene: &Scene, p: SolveParams) -> (Vec<[f64; 3]>, usize) {
     (b, max_shots)
 }
 
-/// The per-patch CSV: id, name, area, B r/g/b (shortest round-trip decimals).
+/// The per-patch CSV: id, name, area, B r/g/b (shortest round-trip decimals). The name is
+/// the patch's group/object or material name when it has one ([`crate::scene::Patch::label`],
+/// quoted as RFC 4180 wants when it holds a comma, a quote or a line break), else `patch<id>`.
 pub fn csv(scene: &Scene, b: &[[f64; 3]]) -> String {
     let mut s = String::from("id,name,area,b_r,b_g,b_b\n");
     for (i, (p, x)) in scene.patches.iter().zip(b).enumerate() {
-        let _ = writeln!(s, "{i},patch{i},{},{},{},{}", p.area(), x[0], x[1], x[2]);
+        let name = match p.label() {
+            Some(n) if n.contains([',', '"', '\n', '\r']) => {
+                format!("\"{}\"", n.replace('"', "\"\""))
+            }
+            Some(n) => n.to_string(),
+            None => format!("patch{i}"),
+        };
+        let _ = writeln!(s, "{i},{name},{},{},{},{}", p.area(), x[0], x[1], x[2]);
     }
     s
 }

@@ -51,6 +51,13 @@ pub struct Patch {
     pub emission: Spectrum,
     #[serde(default = "default_reflectance")]
     pub reflectance: Spectrum,
+    /// The group or object it came from (OBJ `g`/`o`), if named; absent from the JSON when
+    /// `None`, so scenes without names serialize as before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Its material's name (OBJ `usemtl`), if any; absent from the JSON when `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub material: Option<String>,
 }
 
 fn default_reflectance() -> Spectrum {
@@ -98,7 +105,25 @@ impl Patch {
             vertices,
             emission: Spectrum::Grey(emission),
             reflectance: Spectrum::Grey(reflectance),
+            name: None,
+            material: None,
         }
+    }
+
+    /// True when `name` is this patch's group/object name or its material's name.
+    pub fn is_named(&self, name: &str) -> bool {
+        self.name.as_deref() == Some(name) || self.material.as_deref() == Some(name)
+    }
+
+    /// The name to show for the patch: its group/object name, else its material's.
+    pub fn label(&self) -> Option<&str> {
+        self.name.as_deref().or(self.material.as_deref())
+    }
+
+    /// The same patch seen from the other side: the vertex order reversed (the first vertex
+    /// kept), so the front side and the normal flip.
+    pub fn flip(&mut self) {
+        self.vertices[1..].reverse();
     }
 
     /// Newell's normal: twice the vector area; its length is twice the polygon's area and it

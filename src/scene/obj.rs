@@ -1,6 +1,8 @@
 //! Wavefront OBJ import through `tobj`: every face becomes a patch, in file order; faces of
-//! more than 4 vertices are split into triangle fans; `.mtl` colours become reflectance
-//! (`Kd`) and emission (`Ke`).
+//! more than 4 vertices are split into triangle fans, and a face that is not planar and
+//! convex (a non-planar quad, a concave face) into the fan closest to planar
+//! ([`polygon::split`]), said once per file with a count; `.mtl` colours become reflectance
+//! (`Kd`) and emission (`Ke`); the `g`/`o` and `usemtl` names are kept per patch.
 //!
 //! Errors name the file and the face: faces are numbered from 1 in file order (as OBJ
 //! numbers its vertices), with the line the face is on and the patch id it became, e.g.
@@ -47,10 +49,18 @@ impl Default for ImportOptions {
 pub struct ImportReport {
     /// Faces (`f` statements) read from the file.
     pub faces: usize,
-    /// Faces of more than 4 vertices that were split into triangles.
+    /// Planar convex faces of more than 4 vertices that were split into triangle fans.
     pub split_faces: usize,
     /// Triangles the split faces became.
     pub split_triangles: usize,
+    /// Faces that are not planar and convex, split into the fan closest to planar.
+    pub mended_faces: usize,
+    /// Of those, quads (split along one diagonal).
+    pub mended_quads: usize,
+    /// Triangles the mended faces became.
+    pub mended_triangles: usize,
+    /// The largest fold between neighbouring triangles of a mended face, in degrees.
+    pub max_fold_deg: f64,
     /// Patches in the scene.
     pub patches: usize,
     /// Line elements (`l` statements) skipped: they have no area.
@@ -77,6 +87,14 @@ impl ImportReport {
                 plural(self.split_faces, "face", "faces"),
                 plural(self.split_faces, "was", "were"),
                 self.split_triangles
+            ));
+        }
+        if self.mended_faces > 0 {
+            s.push_str(&format!(
+                "; {} not planar and convex {} split into {} triangles",
+                self.mended_faces,
+                plural(self.mended_faces, "face was", "faces were"),
+                self.mended_triangles
             ));
         }
         if self.skipped_lines > 0 {
@@ -136,26 +154,62 @@ impl Origin {
 struct Element {
     line: usize,
     is_face: bool,
+    /// The group or object name in force (the last `g` or `o`), an index into
+    /// [`Prepared::names`].
+    group: Option<usize>,
+    /// The material in force (the last `usemtl`), an index into [`Prepared::names`].
+    material: Option<usize>,
 }
 
-/// The `f`/`l` statements of `text` with their lines, and the text handed to tobj: the same
-/// lines with `vt`/`vn` statements blanked.
-fn prepare(text: &str) -> (Vec<Element>, String) {
+/// What [`prepare`] found.
+struct Prepared {
+    elements: Vec<Element>,
+    /// Every distinct name of a `g`, `o` or `usemtl` statement.
+    names: Vec<String>,
+    /// The text handed to tobj.
+    text: String,
+}
+
+/// The `f`/`l` statements of `text` with their lines and names, and the text handed to
+/// tobj: the same lines with `vt`/`vn` statements blanked. The names are read here rather
+/// than from tobj, which loses a `usemtl` name when its library is missing. A name is the
+/// rest of its line, trimmed (as tobj reads it); an empty `g`/`o` is no name.
+fn prepare(text: &str) -> Prepared {
     let mut elements = Vec::new();
+    let mut names: Vec<String> = Vec::new();
+    let mut index = std::collections::HashMap::<String, usize>::new();
+    let mut intern = |name: &str| -> Option<usize> {
+        if name.is_empty() {
+            return None;
+        }
+        Some(*index.entry(name.to_string()).or_insert_with(|| {
+            names.push(name.to_string());
+            names.len() - 1
+        }))
+    };
+    let (mut group, mut material) = (None, None);
     let mut out = String::with_capacity(text.len());
     for (i, line) in text.lines().enumerate() {
-        match line.split_whitespace().next() {
+        let mut words = line.split_whitespace();
+        let first = words.next();
+        let rest = || {
+            line.trim_start()
+                .get(first.map_or(0, str::len)..)
+                .unwrap_or("")
+                .trim()
+        };
+        match first {
             Some("vt") | Some("vn") => {}
             first => {
                 match first {
-                    Some("f") => elements.push(Element {
+                    Some(kw @ ("f" | "l")) => elements.push(Element {
                         line: i + 1,
-                        is_face: true,
+                        is_face: kw == "f",
+                        group,
+                        material,
                     }),
-                    Some("l") => elements.push(Element {
-                        line: i + 1,
-                        is_face: false,
-                    }),
+                    Some("g" | "o") => group = intern(rest()),
+                    Some("usemtl") => material = intern(rest()),
                     _ => {}
                 }
                 out.push_str(line);
@@ -163,7 +217,11 @@ fn prepare(text: &str) -> (Vec<Element>, String) {
         }
         out.push('\n');
     }
-    (elements, out)
+    Prepared {
+        elements,
+        names,
+        text: out,
+    }
 }
 
 /// The first statement tobj cannot read, found again with its line (tobj's errors have
@@ -270,7 +328,11 @@ pub fn import_bytes(
             ),
         )
     })?;
-    let (elements, text) = prepare(&text);
+    let Prepared {
+        elements,
+        names,
+        text,
+    } = prepare(&text);
 
     let dir = path.parent().unwrap_or(Path::new(""));
     let mut report = ImportReport::default();
@@ -293,8 +355,10 @@ pub fn import_bytes(
         match std::fs::read_to_string(&full) {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 warnings.borrow_mut().push(format!(
-                    "material library {} not found: default materials used",
-                    full.display()
+                    "material library {} not found: every face gets the default material (reflectance {}, emission {})",
+                    full.display(),
+                    opts.reflectance,
+                    opts.emission
                 ));
                 Err(tobj::LoadError::OpenFileFailed)
             }
@@ -404,41 +468,57 @@ pub fn import_bytes(
                     ),
                 ));
             }
-            if arity <= 4 {
-                origins.push(origin);
-                patches.push(Patch {
-                    vertices,
-                    emission,
-                    reflectance,
-                });
-                continue;
-            }
-            let n = arity - 2;
-            // A face split into a fan must be planar and strictly convex: the fan of any
-            // other polygon has triangles that overlap or face the wrong way, each of them
-            // valid alone.
-            polygon::check(&vertices).map_err(|what| {
+            let name = |k: Option<usize>| k.map(|k| names[k].clone());
+            let patch = |vertices: Vec<DVec3>| Patch {
+                vertices,
+                emission,
+                reflectance,
+                name: name(element.and_then(|e| e.group)),
+                material: name(element.and_then(|e| e.material)),
+            };
+            // Every face passes the one polygon check, or is split into the fan that mends
+            // it: the fan of a face that is neither planar nor convex has triangles that
+            // overlap or face the wrong way, each of them valid alone.
+            let fan = polygon::split(&vertices).map_err(|what| {
                 let first = patches.len();
-                Error::input(
-                    path,
-                    origin.place(&format!("patches {first} to {}", first + n - 1)),
-                    what,
-                )
+                let place = if arity <= 4 {
+                    format!("patch {first}")
+                } else {
+                    format!("patches {first} to {}", first + arity - 3)
+                };
+                Error::input(path, origin.place(&place), what)
             })?;
-            report.split_faces += 1;
-            report.split_triangles += n;
-            for j in 1..arity - 1 {
+            let fan = match fan {
+                None if arity <= 4 => {
+                    origins.push(origin);
+                    patches.push(patch(vertices));
+                    continue;
+                }
+                None => {
+                    report.split_faces += 1;
+                    report.split_triangles += arity - 2;
+                    polygon::Fan { apex: 0, fold: 0.0 }
+                }
+                Some(fan) => {
+                    report.mended_faces += 1;
+                    report.mended_quads += usize::from(arity == 4);
+                    report.mended_triangles += arity - 2;
+                    report.max_fold_deg = report.max_fold_deg.max(fan.fold.to_degrees());
+                    fan
+                }
+            };
+            let n = arity - 2;
+            for (j, [a, b, c]) in fan.triangles(arity).enumerate() {
                 origins.push(Origin {
-                    fan: Some((j, n)),
+                    fan: Some((j + 1, n)),
                     ..origin
                 });
-                patches.push(Patch {
-                    vertices: vec![vertices[0], vertices[j], vertices[j + 1]],
-                    emission,
-                    reflectance,
-                });
+                patches.push(patch(vec![vertices[a], vertices[b], vertices[c]]));
             }
         }
+    }
+    if report.mended_faces > 0 {
+        report.warnings.push(mended_warning(&report));
     }
     report.patches = patches.len();
     if patches.is_empty() {
@@ -466,6 +546,33 @@ pub fn import_bytes(
     };
     scene.validate(path).map_err(|e| name_face(e, &origins))?;
     Ok((scene, report))
+}
+
+/// The one message about the faces that were not planar and convex.
+fn mended_warning(r: &ImportReport) -> String {
+    let others = r.mended_faces - r.mended_quads;
+    let mut what = Vec::new();
+    if r.mended_quads > 0 {
+        what.push(format!(
+            "{} {} along the diagonal of smaller fold",
+            r.mended_quads,
+            plural(r.mended_quads, "quad", "quads")
+        ));
+    }
+    if others > 0 {
+        what.push(format!(
+            "{others} {} into the fan of smallest fold",
+            plural(others, "face of more vertices", "faces of more vertices")
+        ));
+    }
+    format!(
+        "{} {} not planar and convex: split into {} triangles ({}); largest fold {:.3}°",
+        r.mended_faces,
+        plural(r.mended_faces, "face is", "faces are"),
+        r.mended_triangles,
+        what.join(", "),
+        r.max_fold_deg
+    )
 }
 
 /// The patches' bounding box, an axis of zero extent padded by 1% of the largest extent on
@@ -574,6 +681,104 @@ mod tests {
             r.summary(),
             "1 face, 3 patches; 1 face with more than 4 vertices was split into 3 triangles"
         );
+    }
+
+    #[test]
+    fn non_planar_and_concave_faces_are_split_and_said_once() {
+        // Three non-planar quads (vertex 3 lifted by 0.1, 0.2, 0.3), a concave quad (a
+        // dart) and a non-planar hexagon: split, with one warning for the file.
+        let mut t = String::new();
+        for (k, h) in [0.1, 0.2, 0.3].iter().enumerate() {
+            let z = 2.0 * k as f64;
+            t += &format!(
+                "v 0 0 {z}\nv 1 0 {z}\nv 1 1 {}\nv 0 1 {z}\nf -4 -3 -2 -1\n",
+                z + h
+            );
+        }
+        t += "v 0 0 9\nv 1 0 9\nv 0.3 0.3 9\nv 0 1 9\nf -4 -3 -2 -1\n";
+        t += "v 0 0 12\nv 2 0 12\nv 3 1 12.5\nv 2 2 12\nv 0 2 12\nv -1 1 12\nf -6 -5 -4 -3 -2 -1\n";
+        let (s, r) = import_str(&t).unwrap();
+        assert_eq!(
+            (r.faces, r.mended_faces, r.mended_quads, r.mended_triangles),
+            (5, 5, 4, 12)
+        );
+        assert_eq!(s.patches.len(), 12);
+        assert_eq!(r.warnings.len(), 1, "{:?}", r.warnings);
+        let w = &r.warnings[0];
+        assert!(w.starts_with("5 faces are not planar and convex: split into 12 triangles (4 quads along the diagonal of smaller fold, 1 face of more vertices into the fan of smallest fold)"), "{w}");
+        // The lifted quads are creased through the two vertices that stayed (the diagonal
+        // 1-3: the fan from vertex 1), the dart through its reflex vertex.
+        let (a, b, c, d) = (v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.1), v(0., 1., 0.));
+        assert_eq!(s.patches[0].vertices, vec![b, c, d]);
+        assert_eq!(s.patches[1].vertices, vec![b, d, a]);
+        assert_eq!(
+            s.patches[6].vertices,
+            vec![v(0., 0., 9.), v(1., 0., 9.), v(0.3, 0.3, 9.)]
+        );
+        assert!(s.patches.iter().all(|p| p.vertices.len() == 3));
+        // The largest fold is the quad lifted most: cos = 1 / √(1 + 2h²).
+        let want = (1.0 / (1.0f64 + 2.0 * 0.09).sqrt()).acos().to_degrees();
+        assert!(r.max_fold_deg >= want - 1e-9, "{} {want}", r.max_fold_deg);
+        // The area is kept: the split triangles cover the dart exactly.
+        let dart: f64 = s.patches[6..8].iter().map(|p| p.area()).sum();
+        assert!((dart - 0.3).abs() < 1e-12, "{dart}");
+    }
+
+    #[test]
+    fn negative_indices_count_back_from_the_vertices_read_so_far() {
+        // `-1` is the last vertex defined *before the face*, not the file's last vertex.
+        let t = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 5\nv 1 0 5\nv 0 1 5\nf -3 -2 -1\nf -6 -5 -4\nf 4 5 -1\n";
+        let (s, _) = import_str(t).unwrap();
+        let z: Vec<Vec<f64>> = s
+            .patches
+            .iter()
+            .map(|p| p.vertices.iter().map(|v| v.z).collect())
+            .collect();
+        assert_eq!(z, vec![vec![0.; 3], vec![5.; 3], vec![0.; 3], vec![5.; 3]]);
+        // Beyond the vertices read so far is an error naming the line.
+        let e = err_str("v 0 0 0\nv 1 0 0\nf -1 -2 -3\nv 0 1 0\n");
+        assert!(e.contains("line 3, face 1") && e.contains("beyond"), "{e}");
+    }
+
+    #[test]
+    fn group_object_and_material_names_are_kept_per_patch() {
+        // No material library: the `usemtl` names are kept all the same.
+        let mut t = format!("{SQUARE}f 1 2 3 4\ng floor\nusemtl white\nf 1 2 3 4\n");
+        t += "o lamp\nf 1 2 3 4\nusemtl  hot lamp \nf 1 2 3\ng\nf 1 3 4\n";
+        let (s, _) = import_str(&t).unwrap();
+        let names: Vec<(Option<&str>, Option<&str>)> = s
+            .patches
+            .iter()
+            .map(|p| (p.name.as_deref(), p.material.as_deref()))
+            .collect();
+        assert_eq!(
+            names,
+            vec![
+                (None, None),
+                (Some("floor"), Some("white")),
+                (Some("lamp"), Some("white")),
+                (Some("lamp"), Some("hot lamp")),
+                (None, Some("hot lamp")),
+            ]
+        );
+        assert_eq!(
+            s.names(),
+            vec![
+                ("floor", vec![1]),
+                ("white", vec![1, 2]),
+                ("lamp", vec![2, 3]),
+                ("hot lamp", vec![3, 4]),
+            ]
+        );
+        // Names survive the JSON form; a scene without names writes none.
+        let back = Scene::from_json_str(&s.to_json_string(), Path::new("t.json")).unwrap();
+        assert_eq!(back, s);
+        let (plain, _) = import_str(&format!("{SQUARE}f 1 2 3 4\n")).unwrap();
+        assert!(
+            !plain.to_json_string().contains("name\": \"")
+                || !plain.to_json_string().contains("\"material\"")
+        );
+        assert!(!plain.to_json_string().contains("material"));
     }
 
     #[test]
@@ -694,12 +899,10 @@ mod tests {
         let cases = [
             ("f 1 2\n", "has 2 vertices"),
             ("f 1\n", "has 1 vertex"),
-            ("f 1 2 3 5\n", "not planar"),
-            ("v 0.3 0.3 0\nf 1 2 9 4\n", "not convex"),
             ("f 1 2 1\n", "coincide"),
             ("v 2 0 0\nf 1 2 9\n", "zero area"),
-            ("v 0.5 0.2 0\nf 1 2 9 3 4\n", "not convex"),
-            ("v 2 2 5\nf 1 2 3 9 4\n", "not planar"),
+            // A bow tie (with lobes of unequal area): no fan mends it.
+            ("v 2 0 0\nf 1 9 4 3\n", "no fan"),
         ];
         for (bad, what) in cases {
             let e = err_str(&format!("{good}f 1 2 3\nf 1 3 4\n{bad}"));

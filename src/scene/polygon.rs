@@ -1,6 +1,8 @@
 //! The one polygon check, for patches and for OBJ faces before they are split into
 //! triangle fans: finite vertices in range, then a planar, strictly convex polygon of
-//! nonzero area that winds once around (no star polygons).
+//! nonzero area that winds once around (no star polygons); and [`split`], the fan that
+//! turns a face that is not planar and convex (a non-planar quad, a concave face) into
+//! triangles that each pass the check.
 //!
 //! Works on bare vertex lists so that it depends on nothing of the scene model.
 
@@ -94,6 +96,14 @@ pub fn check_points(v: &[DVec3]) -> Result<(), String> {
 /// left, and the edges wind once around (a polygon whose turns are all left but that winds
 /// more than once is a star; it cannot have fewer than 5 vertices).
 pub fn check_shape(v: &[DVec3]) -> Result<(), String> {
+    let (local, normal, diam) = check_area(v)?;
+    check_planar_convex(&local, normal, diam)
+}
+
+/// The part of [`check_shape`] that no split can mend: no two consecutive vertices
+/// coincide and the area is not zero. Returns the vertices relative to the first, the unit
+/// Newell normal and the [`size`].
+fn check_area(v: &[DVec3]) -> Result<(Vec<DVec3>, DVec3, f64), String> {
     let n = v.len();
     for i in 0..n {
         if v[i] == v[(i + 1) % n] {
@@ -107,15 +117,20 @@ pub fn check_shape(v: &[DVec3]) -> Result<(), String> {
     // Relative to the first vertex: Newell's sum over absolute positions cancels badly for
     // a small polygon far from the origin (a scene in millimetres, or moved away).
     let local: Vec<DVec3> = v.iter().map(|p| *p - v[0]).collect();
-    let v = &local[..];
-    let av = area_vector(v);
+    let av = area_vector(&local);
     let area = 0.5 * av.length();
     if area.is_nan() || area <= 1e-12 * diam * diam || area == 0.0 {
         return Err(format!(
             "has zero area ({area:e}): its vertices are collinear"
         ));
     }
-    let normal = av / av.length();
+    Ok((local, av / av.length(), diam))
+}
+
+/// The rest of [`check_shape`] on [`check_area`]'s result: planar, every turn strictly to
+/// the left, winding once.
+fn check_planar_convex(v: &[DVec3], normal: DVec3, diam: f64) -> Result<(), String> {
+    let n = v.len();
     let d0 = normal.dot(v[0]);
     for (k, p) in v.iter().enumerate() {
         let off = (normal.dot(*p) - d0).abs();
@@ -150,6 +165,90 @@ pub fn check_shape(v: &[DVec3]) -> Result<(), String> {
     Ok(())
 }
 
+/// Most vertices of a face [`split`] mends: a larger face must be planar and convex as it
+/// is (it is then fanned from its first vertex, as before). Trying every apex is quadratic
+/// in the vertices, and a huge face that fails the check (a 200,000-gon whose turns are too
+/// small to tell from straight) would become 200,000 slivers.
+pub const FAN_MAX_VERTICES: usize = 64;
+
+/// How [`split`] cuts a face: the fan of triangles `(apex, apex + j, apex + j + 1)`
+/// (indices modulo the vertex count), `j = 1 ..= n - 2`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Fan {
+    /// The vertex all triangles share.
+    pub apex: usize,
+    /// The largest angle between the normals of two neighbouring triangles, in radians:
+    /// how far from planar the face is (0 for a planar face).
+    pub fold: f64,
+}
+
+impl Fan {
+    /// The fan's triangles as vertex indices.
+    pub fn triangles(&self, n: usize) -> impl Iterator<Item = [usize; 3]> + '_ {
+        (1..n - 1).map(move |j| [self.apex, (self.apex + j) % n, (self.apex + j + 1) % n])
+    }
+}
+
+/// Splits a face of 3 or more vertices if it must be: `Ok(None)` when it passes [`check`]
+/// as it is; `Ok(Some(fan))` when it is not planar or not convex but a fan of triangles
+/// mends it; `Err` (what is wrong) for bad points, coincident vertices, zero area, a face of
+/// more than [`FAN_MAX_VERTICES`] vertices, or a face that no fan mends (a bow tie, a star).
+///
+/// The rule: among the fans from each vertex, those whose
+/// triangles each pass the check, all face the side of the face's Newell normal, and sweep
+/// less than a full turn about the apex (so they do not overlap); of those, the one whose
+/// largest fold between neighbouring triangles is smallest — the split closest to planar
+/// (for a quad: the diagonal whose two triangles are nearer to coplanar); a tie goes to the
+/// lower apex.
+pub fn split(v: &[DVec3]) -> Result<Option<Fan>, String> {
+    check_points(v)?;
+    let (local, normal, diam) = check_area(v)?;
+    let why = match check_planar_convex(&local, normal, diam) {
+        Ok(()) => return Ok(None),
+        Err(why) => why,
+    };
+    let n = local.len();
+    if n > FAN_MAX_VERTICES {
+        return Err(format!(
+            "{why} (a face of more than {FAN_MAX_VERTICES} vertices is split only when it is planar and convex)"
+        ));
+    }
+    let mut best: Option<Fan> = None;
+    for apex in 0..n {
+        let fan = Fan { apex, fold: 0.0 };
+        if let Some(fold) = fan_fold(&local, &fan, normal) {
+            if best.is_none_or(|b| fold < b.fold) {
+                best = Some(Fan { apex, fold });
+            }
+        }
+    }
+    best.map(Some).ok_or_else(|| {
+        format!(
+            "{why}, and no fan of triangles splits it (it crosses itself or winds more than once)"
+        )
+    })
+}
+
+/// The largest fold of `fan` over `v`, or `None` when one of its triangles fails the check,
+/// faces away from `normal`, or the fan sweeps a full turn about its apex.
+fn fan_fold(v: &[DVec3], fan: &Fan, normal: DVec3) -> Option<f64> {
+    let (mut fold, mut sweep, mut last): (f64, f64, Option<DVec3>) = (0.0, 0.0, None);
+    for [a, b, c] in fan.triangles(v.len()) {
+        let t = [v[a], v[b], v[c]];
+        check_shape(&t).ok()?;
+        let tn = area_vector(&t).normalize();
+        if tn.dot(normal) <= 0.0 {
+            return None;
+        }
+        if let Some(prev) = last {
+            fold = fold.max(prev.angle_between(tn));
+        }
+        last = Some(tn);
+        sweep += (t[1] - t[0]).angle_between(t[2] - t[0]);
+    }
+    (sweep < std::f64::consts::TAU - 1e-9).then_some(fold)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -171,6 +270,9 @@ mod tests {
         assert!((size(&v) - 2.0 * 2f64.sqrt()).abs() < 1e-9);
         let e = check(&v).unwrap_err();
         assert!(e.contains("not convex"), "{e}");
+        // Nor is it split into 199,998 slivers: too large a face to mend.
+        let e = split(&v).unwrap_err();
+        assert!(e.contains("more than 64 vertices"), "{e}");
         // A coarser circle is valid.
         let v: Vec<DVec3> = (0..1000)
             .map(|k| {
@@ -196,5 +298,72 @@ mod tests {
         let e = check(&star).unwrap_err();
         assert!(e.contains("star"), "{e}");
         assert!(check(&pts).is_ok());
+    }
+
+    fn v(x: f64, y: f64, z: f64) -> DVec3 {
+        DVec3::new(x, y, z)
+    }
+
+    #[test]
+    fn a_planar_convex_face_is_not_split() {
+        let sq = [v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)];
+        assert_eq!(split(&sq), Ok(None));
+    }
+
+    #[test]
+    fn a_non_planar_quad_is_cut_along_the_flatter_diagonal() {
+        // The unit square with vertex 2 lifted by h. Cut along 0-2, the triangles' normals
+        // are (0, -h, 1) and (-h, 0, 1): cos fold = 1 / (1 + h²). Cut along 1-3, they are
+        // (-h, -h, 1) and (0, 0, 1): cos fold = 1 / √(1 + 2h²), the smaller fold, so the
+        // crease runs through the two vertices that were not lifted.
+        let h = 0.2f64;
+        let quad = [v(0., 0., 0.), v(1., 0., 0.), v(1., 1., h), v(0., 1., 0.)];
+        let fan = split(&quad).unwrap().expect("a non-planar quad is split");
+        assert_eq!(fan.apex, 1);
+        let want = (1.0 / (1.0 + 2.0 * h * h).sqrt()).acos();
+        assert!((fan.fold - want).abs() < 1e-12, "{} {want}", fan.fold);
+        let other = fan_fold(&quad, &Fan { apex: 0, fold: 0.0 }, DVec3::Z).unwrap();
+        assert!((other - (1.0 / (1.0 + h * h)).acos()).abs() < 1e-12);
+        assert_eq!(
+            fan.triangles(4).collect::<Vec<_>>(),
+            vec![[1, 2, 3], [1, 3, 0]]
+        );
+        // Lifting vertex 1 instead moves the crease to 0-2.
+        let quad = [v(0., 0., 0.), v(1., 0., h), v(1., 1., 0.), v(0., 1., 0.)];
+        assert_eq!(split(&quad).unwrap().unwrap().apex, 0);
+    }
+
+    #[test]
+    fn a_concave_quad_is_cut_through_its_reflex_vertex() {
+        // A dart: vertex 2 is reflex; only the diagonal 0-2 (the fan from 2, or from 0)
+        // keeps both triangles inside.
+        let dart = [v(0., 0., 0.), v(1., 0., 0.), v(0.3, 0.3, 0.), v(0., 1., 0.)];
+        let fan = split(&dart).unwrap().unwrap();
+        assert_eq!(fan.apex, 0);
+        assert_eq!(fan.fold, 0.0);
+        let tris: Vec<_> = fan.triangles(4).collect();
+        assert_eq!(tris, vec![[0, 1, 2], [0, 2, 3]]);
+        // The other diagonal would give a triangle facing the other way.
+        assert_eq!(fan_fold(&dart, &Fan { apex: 1, fold: 0.0 }, DVec3::Z), None);
+    }
+
+    #[test]
+    fn a_bow_tie_and_a_star_are_not_split() {
+        // Lobes of unequal area (a symmetric bow tie has zero area and is refused as such).
+        let bow = [v(0., 0., 0.), v(2., 0., 0.), v(0., 1., 0.), v(1., 1., 0.)];
+        let e = split(&bow).unwrap_err();
+        assert!(e.contains("no fan"), "{e}");
+        let pts = [
+            v(0.0, 1.0, 0.0),
+            v(0.951, 0.309, 0.0),
+            v(0.588, -0.809, 0.0),
+            v(-0.588, -0.809, 0.0),
+            v(-0.951, 0.309, 0.0),
+        ];
+        let star: Vec<DVec3> = (0..5).map(|k| pts[(2 * k) % 5]).collect();
+        assert!(split(&star).unwrap_err().contains("no fan"));
+        // Degenerate faces are refused before any split is tried.
+        let line = [v(0., 0., 0.), v(1., 0., 0.), v(2., 0., 0.), v(3., 0., 0.)];
+        assert!(split(&line).unwrap_err().contains("zero area"));
     }
 }

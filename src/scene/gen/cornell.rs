@@ -57,6 +57,8 @@ fn cornell_shell() -> Vec<Patch> {
             vertices: v,
             emission: Spectrum::Grey(0.0),
             reflectance: colour,
+            name: None,
+            material: None,
         };
         // Face into the box.
         let p = if p.area_vector().dot(inside - p.centroid()) < 0.0 {
@@ -115,6 +117,8 @@ pub(super) fn cornell() -> Vec<Patch> {
         vertices: light,
         emission: Spectrum::Rgb([17.0, 12.0, 4.0]),
         reflectance: Spectrum::Grey(0.78),
+        name: None,
+        material: None,
     };
     if light.area_vector().z > 0.0 {
         light.vertices = flipped(light.vertices);
@@ -146,6 +150,8 @@ pub(super) fn cornell() -> Vec<Patch> {
                 vertices: v,
                 emission: Spectrum::Grey(0.0),
                 reflectance: CORNELL_WHITE,
+                name: None,
+                material: None,
             };
             // Face out of the block.
             let p = if p.area_vector().dot(p.centroid() - centre) < 0.0 {
