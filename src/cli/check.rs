@@ -22,6 +22,13 @@ pub fn run(a: &CheckArgs) -> Result<()> {
     let r = &a.rays;
     check_outputs(&r.outputs())?;
     let scene = Scene::load(&r.scene)?;
+    for p in scene.lying_on(r.source) {
+        eprintln!(
+            "warning: {}: patch {} (the source) lies on patch {p}: coplanar and overlapping, rays leaving it meet patch {p} at t = 0 (their differences are classed near the origin)",
+            r.scene.display(),
+            r.source
+        );
+    }
     let cfg = a.datapath.resolve()?;
     let report = check_scene(&scene, &r.scene, cfg, &r.spec(), r.grid.for_scene(&scene))?;
     print_check(&report);
