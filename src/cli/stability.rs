@@ -1,6 +1,6 @@
 //! `shellsim stability`: every adversarial case on every model, against bit width.
 
-use super::args::MachineArgs;
+use super::args::{parse_bits_range, MachineArgs};
 use crate::error::Result;
 use crate::output::{check_outputs, Output};
 use crate::stability::{self, report, Options};
@@ -11,10 +11,9 @@ use std::path::PathBuf;
 pub struct StabilityArgs {
     /// Fractional bits of the fixed-point model, A..B (both included; the configuration's
     /// own width is always run too).
-    #[arg(long, value_name = "A..B", default_value = "8..16", value_parser = parse_bits)]
+    #[arg(long, value_name = "A..B", default_value = "8..16", value_parser = parse_bits_range)]
     pub frac_bits: (u32, u32),
-    /// The cases, comma-separated (default: all; `shellsim stability --cases list` names
-    /// them in the error).
+    /// The cases, comma-separated (default: all; an unknown name's error lists them).
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
     pub cases: Vec<String>,
     /// Rays per case.
@@ -28,19 +27,6 @@ pub struct StabilityArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub machine: MachineArgs,
-}
-
-/// Parses `A..B`.
-fn parse_bits(s: &str) -> std::result::Result<(u32, u32), String> {
-    let (a, b) = s
-        .split_once("..")
-        .ok_or_else(|| format!("{s:?} is not A..B"))?;
-    let p = |x: &str| {
-        x.trim()
-            .parse::<u32>()
-            .map_err(|_| format!("{x:?} in {s:?} is not a number of bits"))
-    };
-    Ok((p(a)?, p(b)?))
 }
 
 impl StabilityArgs {
