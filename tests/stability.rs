@@ -217,3 +217,25 @@ fn the_committed_report_regenerates_byte_identically() {
         assert!(got == want, "docs/{f} differs from what `{cmd}` writes");
     }
 }
+
+/// `shellsim check` on a scene whose source lies on the floor warns, naming both patches,
+/// and still accounts for every difference (exit 0).
+#[test]
+fn check_warns_about_a_source_lying_on_another_patch() {
+    let case = generate_case("coplanar-source", 10, 1).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("tile.json");
+    case.scene.save_json(&file).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args(["check", "--scene"])
+        .arg(&file)
+        .args(["--source", "6", "--rays", "2000"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(
+        err.contains("patch 6 (the source) lies on patch 0"),
+        "no warning: {err}"
+    );
+}

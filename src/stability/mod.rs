@@ -317,7 +317,7 @@ fn row(ctx: &Ctx, model: Model, bits: Option<u32>, out: &[(usize, RayOutcome)]) 
         c.dda_skipped = Some(skip);
         c.dda_repeated = Some(rep);
     }
-    if model != Model::Float {
+    if model == Model::Fixed {
         c.overflow = Some(ovf);
         c.saturated = Some(sat);
     }

@@ -190,7 +190,9 @@ pub fn markdown(r: &Report, command: &str) -> String {
          without either, the float reference is the answer. Models: `float` (the f64 \
          reference tracer), `fixed` (the untimed fixed-point model, `nearest_grid`), \
          `machine` (the cycle machine on the configuration) and `machine-min` (every buffer \
-         and queue at 1, subshells of one patch, balancing with work-items of one job). A \
+         and queue at 1, subshells of one patch, balancing with work-items of one job); the \
+         machine runs the rays the format can hold and its leaks, double hits, exceptions \
+         and DDA walks are the untimed model's (equal hits), so they are not recounted. A \
          difference is put in the first class that explains it — `check`'s overflow, \
          near origin, grazing, near edge, tie — after `coplanar source` (a hit on a patch the \
          source lies on); *unexplained* is what none covers. The float reference's \
