@@ -4,7 +4,7 @@
 //!
 //! Dependencies point one way (see ARCHITECTURE.md): `cli` → everything, nothing imports
 //! `cli`; `experiment` → `machine`, `partition`, `chart`; `machine` → `fixed`, `partition`,
-//! `reference`; `radiosity` → `machine`, `fixed`, `partition`, `reference`; `fixed`,
+//! `reference`; `radiosity` and `stability` → `machine`, `fixed`, `partition`, `reference`; `fixed`,
 //! `partition` → `reference` → `scene`. `error`, `output`, `limits`, `config`,
 //! `paper`, `progress` and `chart` are leaves anyone may use.
 
@@ -24,6 +24,7 @@ pub mod radiosity;
 pub mod reference;
 pub mod scene;
 pub mod size;
+pub mod stability;
 
 pub use error::{Error, Result};
 pub use scene::{Aabb, Patch, Scene, Spectrum};

@@ -17,6 +17,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("experiment", 5),
     ("size", 5),
     ("radiosity", 5),
+    ("stability", 5),
     ("cli", 6),
 ];
 

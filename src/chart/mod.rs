@@ -12,6 +12,7 @@
 pub mod bits;
 pub mod experiments;
 pub mod partition;
+pub mod stability;
 
 use crate::error::Error;
 use plotters::coord::CoordTranslate;

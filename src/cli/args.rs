@@ -225,15 +225,25 @@ impl MatrixRaysArgs {
     }
 }
 
-/// Parses `FROM..TO`.
+/// Parses `FROM..TO` (patch ids).
 fn parse_range(s: &str) -> std::result::Result<(u32, u32), String> {
+    parse_pair(s, "FROM..TO", "a patch id")
+}
+
+/// Parses `A..B` (fractional bits).
+pub fn parse_bits_range(s: &str) -> std::result::Result<(u32, u32), String> {
+    parse_pair(s, "A..B", "a number of bits")
+}
+
+/// Parses two numbers joined by `..`; `form` and `what` name them in the error.
+fn parse_pair(s: &str, form: &str, what: &str) -> std::result::Result<(u32, u32), String> {
     let (a, b) = s
         .split_once("..")
-        .ok_or_else(|| format!("{s:?} is not FROM..TO"))?;
+        .ok_or_else(|| format!("{s:?} is not {form}"))?;
     let p = |x: &str| {
         x.trim()
             .parse::<u32>()
-            .map_err(|_| format!("{x:?} in {s:?} is not a patch id"))
+            .map_err(|_| format!("{x:?} in {s:?} is not {what}"))
     };
     Ok((p(a)?, p(b)?))
 }

@@ -21,6 +21,13 @@ pub fn run(a: &CheckArgs) -> Result<()> {
     let r = &a.rays;
     check_outputs(&r.outputs())?;
     let (scene, spec) = r.load()?;
+    for p in scene.lying_on(spec.source) {
+        eprintln!(
+            "warning: {}: patch {} (the source) lies on patch {p}: coplanar and overlapping, rays leaving it meet patch {p} at t = 0 (their differences are classed near the origin)",
+            r.input.scene.display(),
+            spec.source
+        );
+    }
     let cfg = a.datapath.resolve()?;
     let report = check_scene(&scene, &r.input.scene, cfg, &spec, r.grid.for_scene(&scene))?;
     print_check(&report);

@@ -14,6 +14,7 @@ pub mod reference;
 pub mod run;
 pub mod scene;
 pub mod size;
+pub mod stability;
 pub mod sweep;
 
 use crate::error::Result;
@@ -61,6 +62,10 @@ pub enum Command {
     /// Solve B = E + ρ F B (Gauss-Seidel or shooting), write per-patch radiosity and a
     /// picture; compare two models' pictures and solutions.
     Radiosity(radiosity::RadiosityArgs),
+    /// Where each method fails: adversarial cases on the float reference, the fixed-point
+    /// model over bit widths and the machine — differences per class, leaks, overflow, DDA
+    /// faults, machine mismatches and deadlocks (CSV, markdown, SVG).
+    Stability(stability::StabilityArgs),
 }
 
 /// Runs the job the command line asks for; errors name the flags the user typed.
@@ -81,6 +86,7 @@ fn dispatch(cli: Cli) -> Result<()> {
         Some(Command::Size(a)) => size::run(&a),
         Some(Command::Matrix(a)) => matrix::run(&a),
         Some(Command::Radiosity(a)) => radiosity::run(&a),
+        Some(Command::Stability(a)) => stability::run(&a),
         None => default::run(),
     }
 }

@@ -100,13 +100,27 @@ struct Outcome {
     t_err_lsb: Option<f64>,
 }
 
-#[derive(Clone, Copy)]
-enum Class {
+/// The explained class of a difference.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Class {
     Overflow,
     NearOrigin,
     Tie,
     NearEdge,
     Grazing,
+}
+
+impl Class {
+    /// The class's name, as in [`Classes`].
+    pub fn name(self) -> &'static str {
+        match self {
+            Class::Overflow => "overflow",
+            Class::NearOrigin => "near_origin",
+            Class::Tie => "tie",
+            Class::NearEdge => "near_edge",
+            Class::Grazing => "grazing",
+        }
+    }
 }
 
 /// Runs both models on `set` from `source` and classifies every difference.
@@ -119,7 +133,6 @@ pub fn check(
 ) -> CheckReport {
     let f = *host.formats();
     // LSBs as scene lengths: the float reference works in scene units.
-    let lsb_c = host.coord_lsb();
     let lsb_t = host.t_lsb();
     let outcomes: Vec<Outcome> = set
         .rays
@@ -142,8 +155,13 @@ pub fn check(
                 (Some(a), Some(b)) if same => Some((host.t_f64(b.t) - a.t).abs() / lsb_t),
                 _ => None,
             };
+            let fixed_hit = fixed.map(|h| Hit {
+                patch: h.patch,
+                t: host.t_f64(h.t),
+            });
+            let overflow = exc.overflow > 0 || exc.t_saturated > 0;
             let class =
-                (!same).then(|| classify(tracer, host, ray, float, fixed, &exc, tol, lsb_c, lsb_t));
+                (!same).then(|| classify(tracer, host, ray, float, fixed_hit, overflow, tol));
             Outcome {
                 float,
                 fixed,
@@ -236,22 +254,23 @@ pub fn check(
     }
 }
 
-/// Why the two models disagree on `ray`, if an explained class covers it.
-#[allow(clippy::too_many_arguments)]
-fn classify(
+/// Why two answers for `ray` disagree — `float` (the float reference's, or an exact one)
+/// and `fixed` (the other model's, t as a scene length) — if an explained class covers it,
+/// with LSBs of `host`'s formats; `overflow`: the datapath overflowed or saturated on it.
+pub fn classify(
     tracer: &Tracer,
     host: &HostFixed,
     ray: &Ray,
     float: Option<Hit>,
-    fixed: Option<FixedHit>,
-    exc: &Exceptions,
+    fixed: Option<Hit>,
+    overflow: bool,
     tol: Tolerances,
-    lsb_c: f64,
-    lsb_t: f64,
 ) -> Option<Class> {
-    if exc.overflow > 0 || exc.t_saturated > 0 {
+    if overflow {
         return Some(Class::Overflow);
     }
+    let lsb_c = host.coord_lsb();
+    let lsb_t = host.t_lsb();
     let pr = PreparedRay::new(ray);
     let dn = ray.d.normalize();
     // The patches involved, with the float t at which the ray meets each one's plane.
@@ -262,11 +281,7 @@ fn classify(
     if let Some(b) = fixed {
         let g = &tracer.patches[b.patch as usize];
         let t = g.plane_t(&pr);
-        let t = if t.is_finite() && t > 0.0 {
-            t
-        } else {
-            host.t_f64(b.t)
-        };
+        let t = if t.is_finite() && t > 0.0 { t } else { b.t };
         involved.push((b.patch, t));
     }
     // A hit within a few LSBs of the origin: the quantized origin may lie on the other

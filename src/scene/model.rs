@@ -310,6 +310,76 @@ impl Scene {
     pub fn total_area(&self) -> f64 {
         self.patches.iter().map(Patch::area).sum()
     }
+
+    /// The patches lying on patch `id`: in its plane (every vertex within 1e-9 of the
+    /// scene's scale of it, whichever way they face) and overlapping it with positive area
+    /// — a tile on the floor. Rays leaving `id` meet them at t ≈ 0, where the answer turns
+    /// on rounding. Patches that only touch it along an edge or at a vertex are not listed.
+    pub fn lying_on(&self, id: u32) -> Vec<u32> {
+        let Some(src) = self.patches.get(id as usize) else {
+            return Vec::new();
+        };
+        let eps = 1e-9 * self.bounds.scale();
+        let n = src.normal();
+        let c = src.vertices[0];
+        // The plane's coordinates: drop the normal's largest axis.
+        let a = n.abs();
+        let k = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let flat = |v: &[DVec3]| -> Vec<[f64; 2]> {
+            v.iter()
+                .map(|p| {
+                    let a = p.to_array();
+                    match k {
+                        0 => [a[1], a[2]],
+                        1 => [a[2], a[0]],
+                        _ => [a[0], a[1]],
+                    }
+                })
+                .collect()
+        };
+        let a = flat(&src.vertices);
+        (0..self.patches.len() as u32)
+            .filter(|&j| j != id)
+            .filter(|&j| {
+                let p = &self.patches[j as usize];
+                p.vertices.iter().all(|v| (*v - c).dot(n).abs() <= eps)
+                    && polygons_overlap(&a, &flat(&p.vertices), eps)
+            })
+            .collect()
+    }
+}
+
+/// Whether two convex polygons of one plane overlap by more than `eps` on every axis that
+/// could separate them (their edges' normals): their interiors meet.
+fn polygons_overlap(a: &[[f64; 2]], b: &[[f64; 2]], eps: f64) -> bool {
+    let axes = |p: &[[f64; 2]]| -> Vec<[f64; 2]> {
+        (0..p.len())
+            .map(|i| {
+                let (u, v) = (p[i], p[(i + 1) % p.len()]);
+                let (x, y) = (v[1] - u[1], u[0] - v[0]);
+                let l = x.hypot(y);
+                [x / l, y / l]
+            })
+            .collect()
+    };
+    let span = |p: &[[f64; 2]], ax: [f64; 2]| {
+        p.iter()
+            .map(|q| q[0] * ax[0] + q[1] * ax[1])
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+                (lo.min(x), hi.max(x))
+            })
+    };
+    axes(a).into_iter().chain(axes(b)).all(|ax| {
+        let (a0, a1) = span(a, ax);
+        let (b0, b1) = span(b, ax);
+        a1.min(b1) - a0.max(b0) > eps
+    })
 }
 
 /// The top level of a JSON scene file; patches are parsed one by one so that an error can
