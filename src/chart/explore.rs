@@ -41,11 +41,14 @@ pub fn svg(c: &FrontChart) -> Result<String> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
         let xs: Vec<f64> = c.dots.iter().map(|d| d.x).filter(|&v| pos(v)).collect();
         let ys: Vec<f64> = c.dots.iter().map(|d| d.y).filter(|&v| pos(v)).collect();
+        // Whole decades, so the logarithmic axes have their labelled powers of ten.
         let span = |v: &[f64], lo_default: f64| {
             let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = v.iter().copied().fold(0.0f64, f64::max);
             if lo.is_finite() && hi > 0.0 {
-                (lo / 1.5, hi * 1.5)
+                let a = (lo / 1.2).log10().floor();
+                let b = (hi * 1.2).log10().ceil().max(a + 1.0);
+                (10f64.powf(a), 10f64.powf(b))
             } else {
                 (lo_default, lo_default * 10.0)
             }

@@ -417,21 +417,7 @@ pub fn run(
 ) -> Result<RunSummary> {
     let shard = shard.filter(|s| s.n > 1);
     let sf = spec_file(spec, shard);
-    if let Some(old) = read_spec_file(dir)? {
-        if old.spec_hash != sf.spec_hash || old.shard != sf.shard {
-            return Err(Error::input(
-                &dir.join("spec.json"),
-                "spec_hash",
-                format!(
-                    "this directory holds a run of another spec or shard (hash {}, shard {}); this one is hash {}, shard {}: give another --out or remove it",
-                    old.spec_hash,
-                    shard_name(old.shard),
-                    sf.spec_hash,
-                    shard_name(sf.shard)
-                ),
-            ));
-        }
-    }
+    check_same_spec(dir, &sf)?;
     output::write_json(&dir.join("spec.json"), &sf)?;
     let mine: Vec<&Point> = spec
         .points
@@ -499,6 +485,26 @@ pub fn run(
         resumed,
         shard,
     })
+}
+
+/// Refuses to write `sf`'s results into `dir` when it holds another spec's or shard's.
+fn check_same_spec(dir: &Path, sf: &SpecFile) -> Result<()> {
+    if let Some(old) = read_spec_file(dir)? {
+        if old.spec_hash != sf.spec_hash || old.shard != sf.shard {
+            return Err(Error::input(
+                &dir.join("spec.json"),
+                "spec_hash",
+                format!(
+                    "this directory holds a run of another spec or shard (hash {}, shard {}); this one is hash {}, shard {}: give another --out or remove it",
+                    old.spec_hash,
+                    shard_name(old.shard),
+                    sf.spec_hash,
+                    shard_name(sf.shard)
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// `K/N`, or `none`.
@@ -572,6 +578,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
         ));
     }
     whole.shard = None;
+    check_same_spec(out, &whole)?;
     output::write_json(&out.join("spec.json"), &whole)?;
     for f in files.values() {
         output::write_json(&point_file(out, f.point.index), f)?;

@@ -257,7 +257,7 @@ fn short_label(p: &PointResult, axes: &[&Axis]) -> String {
     let ks: Vec<_> = p
         .knobs
         .iter()
-        .filter(|k| axes.iter().any(|a| a.key == k.key))
+        .filter(|k| k.key != "scene" && k.key != "level" && axes.iter().any(|a| a.key == k.key))
         .cloned()
         .collect();
     knobs_label(&ks)
