@@ -41,35 +41,37 @@ pub fn svg(c: &FrontChart) -> Result<String> {
         let pos = |v: f64| v.is_finite() && v > 0.0;
         let xs: Vec<f64> = c.dots.iter().map(|d| d.x).filter(|&v| pos(v)).collect();
         let ys: Vec<f64> = c.dots.iter().map(|d| d.y).filter(|&v| pos(v)).collect();
-        // Whole decades, so the logarithmic axes have their labelled powers of ten.
+        // Both axes logarithmic, drawn as log10 of the values on linear axes (so a range
+        // within one decade still gets its labels), labelled with the values.
         let span = |v: &[f64], lo_default: f64| {
             let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
             let hi = v.iter().copied().fold(0.0f64, f64::max);
             if lo.is_finite() && hi > 0.0 {
-                let a = (lo / 1.2).log10().floor();
-                let b = (hi * 1.2).log10().ceil().max(a + 1.0);
-                (10f64.powf(a), 10f64.powf(b))
+                ((lo / 1.25).log10(), (hi * 1.25).log10())
             } else {
-                (lo_default, lo_default * 10.0)
+                (lo_default.log10(), lo_default.log10() + 1.0)
             }
         };
         let (x0, x1) = span(&xs, 1.0);
         let (y0, y1) = span(&ys, 1e-6);
         // A zero error is drawn on the floor.
-        let clamp = |v: f64, lo: f64| if pos(v) { v } else { lo };
+        let at = |v: f64, lo: f64| if pos(v) { v.log10() } else { lo };
         let mut chart = ChartBuilder::on(&root)
             .caption(c.title, ("sans-serif", 18))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(70)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .build_cartesian_2d(x0..x1, y0..y1)
             .map_err(draw_err)?;
         chart
             .configure_mesh()
             .x_desc(c.x_desc)
             .y_desc(c.y_desc)
-            .x_label_formatter(&|x| format!("{x:.1e}"))
-            .y_label_formatter(&|y| format!("{y:.0e}"))
+            .light_line_style(TRANSPARENT)
+            .x_labels(10)
+            .y_labels(10)
+            .x_label_formatter(&|x| format!("{:.2e}", 10f64.powf(*x)))
+            .y_label_formatter(&|y| format!("{:.2e}", 10f64.powf(*y)))
             .draw()
             .map_err(draw_err)?;
         for (s, name) in c.series.iter().enumerate() {
@@ -78,7 +80,7 @@ pub fn svg(c: &FrontChart) -> Result<String> {
                 .dots
                 .iter()
                 .filter(|d| d.series == s && d.x.is_finite())
-                .map(|d| (clamp(d.x, x0), clamp(d.y, y0)))
+                .map(|d| (at(d.x, x0), at(d.y, y0)))
                 .collect();
             if pts.is_empty() {
                 continue;
@@ -93,7 +95,7 @@ pub fn svg(c: &FrontChart) -> Result<String> {
         let fp: Vec<(f64, f64)> = c
             .front
             .iter()
-            .map(|&i| (clamp(c.dots[i].x, x0), clamp(c.dots[i].y, y0)))
+            .map(|&i| (at(c.dots[i].x, x0), at(c.dots[i].y, y0)))
             .collect();
         let mut stairs = Vec::new();
         for (k, &p) in fp.iter().enumerate() {
