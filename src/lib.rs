@@ -1,9 +1,10 @@
 //! shellsim: the host side and test bench of the shelling ray-casting machine — scenes,
 //! grid, ray sets, the float reference tracer, analytic form factors, the partitioner, the
-//! fixed-point host side, the machine's runs and experiments, and the CLI.
+//! fixed-point host side, the machine's runs and experiments, design-space sweeps, and the
+//! CLI.
 //!
 //! Dependencies point one way (see ARCHITECTURE.md): `cli` → everything, nothing imports
-//! `cli`; `experiment` → `machine`, `partition`, `chart`; `machine` → `fixed`, `partition`,
+//! `cli`; `explore` → `size`, `experiment`, `radiosity` and below; `experiment` → `machine`, `partition`, `chart`; `machine` → `fixed`, `partition`,
 //! `reference`; `radiosity` and `stability` → `machine`, `fixed`, `partition`, `reference`; `fixed`,
 //! `partition` → `reference` → `scene`. `error`, `output`, `limits`, `config`,
 //! `paper`, `progress` and `chart` are leaves anyone may use.
@@ -13,6 +14,7 @@ pub mod cli;
 pub mod config;
 pub mod error;
 pub mod experiment;
+pub mod explore;
 pub mod fixed;
 pub mod limits;
 pub mod machine;

@@ -11,6 +11,7 @@
 
 pub mod bits;
 pub mod experiments;
+pub mod explore;
 pub mod partition;
 pub mod stability;
 

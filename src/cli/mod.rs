@@ -6,6 +6,7 @@ pub mod args;
 pub mod check;
 pub mod default;
 pub mod experiment;
+pub mod explore;
 pub mod matrix;
 pub mod paper;
 pub mod partition;
@@ -66,6 +67,11 @@ pub enum Command {
     /// model over bit widths and the machine — differences per class, leaks, overflow, DDA
     /// faults, machine mismatches and deadlocks (CSV, markdown, SVG).
     Stability(stability::StabilityArgs),
+    /// A design-space sweep: accuracy, machine speed, hardware and simulator cost per
+    /// point, the non-dominated fronts and a report; sharded runs, their merge, and Slurm
+    /// job-array scripts.
+    #[command(subcommand)]
+    Explore(explore::ExploreCmd),
 }
 
 /// Runs the job the command line asks for; errors name the flags the user typed.
@@ -87,6 +93,7 @@ fn dispatch(cli: Cli) -> Result<()> {
         Some(Command::Matrix(a)) => matrix::run(&a),
         Some(Command::Radiosity(a)) => radiosity::run(&a),
         Some(Command::Stability(a)) => stability::run(&a),
+        Some(Command::Explore(c)) => explore::run(&c),
         None => default::run(),
     }
 }
