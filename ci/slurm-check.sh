@@ -83,6 +83,11 @@ logs() {
     echo "---- $d: ${f#"$tmp"/} (last 30 lines)"
     tail -n 30 "$f"
   done
+  # The jobs' own output (sbatch --output files) under the sweep or smoke directory.
+  find "$tmp/sweep" "$tmp/smoke" -name '*.out' -size +0 2>/dev/null | sort | while read -r f; do
+    echo "---- job output: ${f#"$tmp"/} (last 15 lines)"
+    tail -n 15 "$f"
+  done
 }
 fail() {
   echo "slurm-check: FAILED: $*" >&2
