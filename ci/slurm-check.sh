@@ -37,7 +37,7 @@ if ! command -v slurmctld >/dev/null || ! command -v slurmd >/dev/null \
   say "installing slurm-wlm and munge"
   export DEBIAN_FRONTEND=noninteractive
   apt-get update -qq
-  apt-get install -y -qq slurm-wlm munge >/dev/null
+  apt-get install -y -qq --no-install-recommends slurm-wlm munge >/dev/null
 fi
 installed=$(date +%s)
 
