@@ -172,11 +172,17 @@ say "cluster up in $((ready - installed)) s: $(sinfo -h -o '%P %D %T %C')"
 
 # Wait until no job of our cluster is pending or running; fail on any job that did not complete.
 wait_jobs() {
-  local deadline=$(($(date +%s) + timeout_s)) list bad
+  local deadline=$(($(date +%s) + timeout_s)) list bad node_state
   while :; do
     list=$(squeue -h -r -t all -o '%i %T %r') || fail "squeue failed"
     bad=$(echo "$list" | awk '$2 !~ /^(PENDING|CONFIGURING|RUNNING|COMPLETING|COMPLETED)$/ || $3 ~ /DependencyNeverSatisfied/')
     [ -z "$bad" ] || fail "a job did not complete:"$'\n'"$list"
+    # A job that slurmd cannot launch ends COMPLETED and drains the node: catch that here.
+    node_state=$(sinfo -h -n "$host" -o %T) || fail "sinfo failed"
+    case "$node_state" in
+      idle | mixed | allocated | completing) ;;
+      *) fail "node $host is $node_state ($(sinfo -h -R -o %E)); jobs:"$'\n'"$list" ;;
+    esac
     echo "$list" | awk '$2 != "COMPLETED"' | grep -q . || break
     [ "$(date +%s)" -lt "$deadline" ] || fail "jobs not done after $timeout_s s:"$'\n'"$list"
     sleep 1
