@@ -13,6 +13,7 @@ pub mod cli;
 pub mod config;
 pub mod error;
 pub mod experiment;
+pub mod explore;
 pub mod fixed;
 pub mod limits;
 pub mod machine;

@@ -17,7 +17,8 @@ const LAYERS: &[(&str, u32)] = &[
     ("experiment", 5),
     ("size", 5),
     ("radiosity", 5),
-    ("cli", 6),
+    ("explore", 6),
+    ("cli", 7),
 ];
 
 /// Modules any other may use; they import no layered module.

@@ -11,6 +11,7 @@
 
 pub mod bits;
 pub mod experiments;
+pub mod explore;
 pub mod partition;
 
 use crate::error::Error;

@@ -6,6 +6,7 @@ pub mod args;
 pub mod check;
 pub mod default;
 pub mod experiment;
+pub mod explore;
 pub mod matrix;
 pub mod paper;
 pub mod partition;
@@ -61,6 +62,11 @@ pub enum Command {
     /// Solve B = E + ρ F B (Gauss-Seidel or shooting), write per-patch radiosity and a
     /// picture; compare two models' pictures and solutions.
     Radiosity(radiosity::RadiosityArgs),
+    /// A design-space sweep: accuracy, machine speed, hardware and simulator cost per
+    /// point, the non-dominated fronts and a report; sharded runs, their merge, and Slurm
+    /// job-array scripts.
+    #[command(subcommand)]
+    Explore(explore::ExploreCmd),
 }
 
 /// Runs the job the command line asks for; errors name the flags the user typed.
@@ -81,6 +87,7 @@ fn dispatch(cli: Cli) -> Result<()> {
         Some(Command::Size(a)) => size::run(&a),
         Some(Command::Matrix(a)) => matrix::run(&a),
         Some(Command::Radiosity(a)) => radiosity::run(&a),
+        Some(Command::Explore(c)) => explore::run(&c),
         None => default::run(),
     }
 }

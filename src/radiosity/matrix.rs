@@ -78,6 +78,15 @@ pub struct Row {
 }
 
 impl Row {
+    /// The row as a dense vector over `n` patches.
+    pub fn dense(&self, n: usize) -> Vec<f64> {
+        let mut v = vec![0.0; n];
+        for &(j, f) in &self.entries {
+            v[j as usize] = f;
+        }
+        v
+    }
+
     /// Σ_j F_ij + escaped + back weight, summed in id order (1 up to rounding).
     pub fn sum(&self) -> f64 {
         self.entries.iter().map(|e| e.1).sum::<f64>() + self.escaped + self.back
@@ -118,16 +127,7 @@ impl FormMatrix {
 
     /// Every row as a dense vector (for small scenes and tests).
     pub fn dense(&self) -> Vec<Vec<f64>> {
-        self.rows
-            .iter()
-            .map(|r| {
-                let mut v = vec![0.0; self.n];
-                for &(j, f) in &r.entries {
-                    v[j as usize] = f;
-                }
-                v
-            })
-            .collect()
+        self.rows.iter().map(|r| r.dense(self.n)).collect()
     }
 
     /// Entries in row-major order (row, column, value), 0-based.
@@ -290,28 +290,47 @@ fn records(sh: &Shared, host: &HostFixed, set: &RaySet, source: u32) -> Result<V
         .collect()
 }
 
-/// One source's row on `spec.model` (the machine's figures too, for the machine).
-pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Option<MachineRow>)> {
+/// One source's rays on one model: the ray set, each ray's nearest patch, and for the
+/// machine its whole run's statistics.
+pub struct RowRun {
+    pub set: RaySet,
+    pub hits: Vec<Option<u32>>,
+    pub stats: Option<crate::machine::run::RunStats>,
+}
+
+impl RowRun {
+    /// The row these hits make.
+    pub fn row(&self, scene: &Scene, source: u32) -> Row {
+        row_of(source, scene, &self.set, self.hits.iter().copied())
+    }
+}
+
+/// Casts source `i`'s rays of `spec` on `spec.model` (the machine's run checked ray by ray
+/// against the untimed model).
+pub fn run_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<RowRun> {
     let set = rays_of(sh.scene, spec, i);
-    match spec.model {
-        Model::Float => {
-            let hits = set
-                .rays
+    let (hits, stats) = match spec.model {
+        Model::Float => (
+            set.rays
                 .iter()
-                .map(|r| sh.tracer.trace(r, Some(i)).map(|h| h.patch));
-            Ok((row_of(i, sh.scene, &set, hits), None))
-        }
+                .map(|r| sh.tracer.trace(r, Some(i)).map(|h| h.patch))
+                .collect(),
+            None,
+        ),
         Model::Fixed => {
             let host = sh.host.as_ref().expect("built for the fixed model");
             let recs = records(sh, host, &set, i)?;
-            let hits = recs.iter().map(|r| {
-                let mut e = Exceptions::default();
-                host.scene
-                    .nearest_grid(r, Some(i), &mut e)
-                    .0
-                    .map(|h| h.patch)
-            });
-            Ok((row_of(i, sh.scene, &set, hits), None))
+            let hits = recs
+                .iter()
+                .map(|r| {
+                    let mut e = Exceptions::default();
+                    host.scene
+                        .nearest_grid(r, Some(i), &mut e)
+                        .0
+                        .map(|h| h.patch)
+                })
+                .collect();
+            (hits, None)
         }
         Model::Machine => {
             let host = sh.host.as_ref().expect("built for the machine model");
@@ -336,23 +355,24 @@ pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Optio
                 order: TickOrder::Forward,
             };
             let out = simulate(&input, &sh.scene.name, sh.cfg, &run, None)?;
-            let s = &out.stats;
-            let mr = MachineRow {
-                cycles: s.cycles,
-                pipeline_efficiency: s.pipeline_efficiency,
-                patch_loads: s.patch_loads,
-                jobs: s.jobs,
-                mismatches_vs_fixed: s.mismatches_vs_fixed,
-            };
-            let row = row_of(
-                i,
-                sh.scene,
-                &set,
-                out.hits.iter().map(|h| h.map(|h| h.patch)),
-            );
-            Ok((row, Some(mr)))
+            let hits = out.hits.iter().map(|h| h.map(|h| h.patch)).collect();
+            (hits, Some(out.stats))
         }
-    }
+    };
+    Ok(RowRun { set, hits, stats })
+}
+
+/// One source's row on `spec.model` (the machine's figures too, for the machine).
+pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Option<MachineRow>)> {
+    let run = run_row(sh, spec, i)?;
+    let mr = run.stats.as_ref().map(|s| MachineRow {
+        cycles: s.cycles,
+        pipeline_efficiency: s.pipeline_efficiency,
+        patch_loads: s.patch_loads,
+        jobs: s.jobs,
+        mismatches_vs_fixed: s.mismatches_vs_fixed,
+    });
+    Ok((run.row(sh.scene, i), mr))
 }
 
 /// Every row of `spec.sources`, in parallel over sources (rayon), collected in source

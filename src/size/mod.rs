@@ -49,7 +49,7 @@ pub const REFERENCE_FACTOR: usize = 16;
 pub const REFERENCE_MIN: usize = 100_000;
 
 /// Seed of the reference rays (independent of the machine's ring rays).
-const REFERENCE_SEED: u64 = 1_000_003;
+pub const REFERENCE_SEED: u64 = 1_000_003;
 
 /// What the form-factor error is measured against.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
@@ -120,7 +120,7 @@ pub struct ShapeTrial {
 }
 
 /// What a machine costs.
-#[derive(Clone, Copy, Debug, Serialize, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Serialize, serde::Deserialize, PartialEq, Eq)]
 pub struct Cost {
     pub multiplier_bits: u64,
     pub adder_bits: u64,
@@ -254,6 +254,13 @@ impl Bench<'_> {
 
 /// The cost of machine `cfg` on `scene`.
 pub fn cost(cfg: &MachineConfig, scene: &Scene, file: &Path, cell: f64) -> Result<Cost> {
+    let host = HostFixed::new(scene, file, cfg.datapath, cell)?;
+    cost_on(cfg, scene, file, &host)
+}
+
+/// The cost of machine `cfg` on `scene` already in hardware form (`host`, built on
+/// `cfg.datapath` and the resolved cell size).
+pub fn cost_on(cfg: &MachineConfig, scene: &Scene, file: &Path, host: &HostFixed) -> Result<Cost> {
     let f = cfg
         .datapath
         .formats()
@@ -268,7 +275,6 @@ pub fn cost(cfg: &MachineConfig, scene: &Scene, file: &Path, cell: f64) -> Resul
     let sram_bits = clusters * m.ray_buffer_capacity as u64 * job_bits
         + clusters * m.patch_buffer_capacity as u64 * sizes.patch_bits as u64
         + ctus * m.request_queue_capacity as u64 * PATCH_ID_BITS as u64;
-    let host = HostFixed::new(scene, file, cfg.datapath, cell)?;
     let memory_words =
         scene.patches.len() as u64 * sizes.patch_words as u64 + host.scene.cells.words(f.word_bits);
     let datapath = clusters * (dp.multiplier_bits + dp.adder_bits);

@@ -1,0 +1,582 @@
+//! `shellsim explore`: a design-space sweep. A spec ([`spec`]) expands to design points;
+//! each point is measured ([`evaluate`]) — accuracy against a high-ray float reference
+//! (computed once per scene and source and cached in the output directory), mismatches
+//! against the float model on the same rays and, for the machine, against the untimed
+//! model (must be 0), the machine's cycles, efficiency and resource bound, the hardware
+//! cost of `shellsim size`'s model, and the simulator's own wall time — and the
+//! non-dominated fronts of error against cycles, cost and wall time are drawn and reported
+//! ([`front`], [`report`]).
+//!
+//! Scale-out: a run may compute one shard (`K/N`: the points whose index is K mod N); every
+//! point is written on its own, atomically, to `DIR/points/NNNNNN.json` as soon as it is
+//! measured, so an interrupted run resumes where it stopped and [`merge`] joins shards into
+//! the unsharded run's result, byte for byte. [`slurm`] writes the job-array scripts.
+//!
+//! **Invariant:** `points.csv`, `points.json`, `front.csv`, the charts of error against
+//! cycles and cost and `report.md` depend only on the spec: not on the thread count, the
+//! sharding or resumption. Wall-clock figures live in `host.csv`, `host-front.csv` and the
+//! wall-time chart, which nothing compares.
+
+pub mod front;
+pub mod report;
+pub mod slurm;
+pub mod spec;
+
+use crate::error::{Error, Result};
+use crate::experiment::Bound;
+use crate::output::{self, Output};
+use crate::radiosity::matrix::{run_row, Model, Shared};
+use crate::reference::rays::Directions;
+use crate::size::{self, Cost};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+use spec::{Axis, Knob, Point, Spec};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Version of the output directory's layout.
+pub const FORMAT: u32 = 1;
+
+/// One shard of a run: the points whose index is `k` mod `n`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    pub k: usize,
+    pub n: usize,
+}
+
+impl Shard {
+    /// Parses `K/N` (K in 0..N).
+    pub fn parse(s: &str) -> std::result::Result<Shard, String> {
+        let (k, n) = s
+            .split_once('/')
+            .ok_or_else(|| format!("{s:?} is not K/N"))?;
+        let num = |x: &str| {
+            x.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("{x:?} in {s:?} is not a number"))
+        };
+        Shard::new(num(k)?, num(n)?)
+    }
+
+    /// Shard `k` of `n`, checked.
+    pub fn new(k: usize, n: usize) -> std::result::Result<Shard, String> {
+        if n == 0 || k >= n {
+            return Err(format!("shard {k}/{n}: K must be in 0..N and N at least 1"));
+        }
+        Ok(Shard { k, n })
+    }
+
+    /// The shard a Slurm array task computes: `SLURM_ARRAY_TASK_ID` less
+    /// `SLURM_ARRAY_TASK_MIN` (0 when unset) of `SLURM_ARRAY_TASK_COUNT`; `None` outside an
+    /// array job.
+    pub fn from_slurm() -> std::result::Result<Option<Shard>, String> {
+        let var = |k: &str| std::env::var(k).ok();
+        let (Some(id), Some(count)) = (var("SLURM_ARRAY_TASK_ID"), var("SLURM_ARRAY_TASK_COUNT"))
+        else {
+            return Ok(None);
+        };
+        let num = |name: &str, v: &str| {
+            v.trim()
+                .parse::<usize>()
+                .map_err(|_| format!("{name}={v:?} is not a number"))
+        };
+        let id = num("SLURM_ARRAY_TASK_ID", &id)?;
+        let min = match var("SLURM_ARRAY_TASK_MIN") {
+            Some(m) => num("SLURM_ARRAY_TASK_MIN", &m)?,
+            None => 0,
+        };
+        let n = num("SLURM_ARRAY_TASK_COUNT", &count)?;
+        let k = id.checked_sub(min).ok_or_else(|| {
+            format!("SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}")
+        })?;
+        Shard::new(k, n).map(Some)
+    }
+
+    /// Whether point `i` is in this shard.
+    pub fn holds(&self, i: usize) -> bool {
+        i % self.n == self.k
+    }
+}
+
+/// What one design point measured (every figure deterministic).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PointResult {
+    pub index: usize,
+    pub scene: String,
+    pub source: u32,
+    pub level: Model,
+    pub rays: usize,
+    pub directions: String,
+    pub seed: u64,
+    /// The spec's keys for this point.
+    pub knobs: Vec<Knob>,
+    /// The resolved configuration's main knobs.
+    pub frac_bits: u32,
+    pub t_frac_bits: u32,
+    pub coord_int_bits: u32,
+    pub t_int_bits: u32,
+    pub cell: f64,
+    pub shell_radius: f64,
+    pub clusters: u32,
+    pub ctus_per_cluster: u32,
+    pub ray_buffer: u32,
+    pub patch_buffer: u32,
+    pub request_queue: u32,
+    pub balance: bool,
+    pub work_item_jobs: u32,
+    /// Form-factor error against the high-ray float reference: max over patches, RMS over
+    /// patches, and the max over the estimator's sampling error at this point's rays
+    /// (max over patches of √(F(1−F)/N), F the reference).
+    pub ff_err_max: f64,
+    pub ff_err_rms: f64,
+    pub sampling_err: f64,
+    pub err_over_sampling: f64,
+    /// Rays whose nearest patch differs from the float model's on the same rays.
+    pub mismatches_vs_float: u64,
+    /// The machine: rays that differ from the untimed model (0), cycles, pipeline
+    /// efficiency, the resource bound on cycles and the resource that sets it.
+    pub mismatches_vs_fixed: Option<u64>,
+    pub cycles: Option<u64>,
+    pub pipeline_efficiency: Option<f64>,
+    pub bound_cycles: Option<u64>,
+    pub binds: Option<String>,
+    /// The hardware cost (fixed and machine levels): `shellsim size`'s model.
+    pub cost: Option<Cost>,
+}
+
+/// What a point cost the simulator (not deterministic; host.csv only).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HostFigures {
+    pub wall_s: f64,
+    /// Simulated cycles per second of the machine's run.
+    pub cycles_per_s: Option<f64>,
+}
+
+/// One point's file, `DIR/points/NNNNNN.json`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PointFile {
+    pub spec_hash: String,
+    pub point: PointResult,
+    pub host: HostFigures,
+}
+
+/// `DIR/spec.json`: which spec (by hash) and shard a directory holds, and what the report
+/// needs of the spec.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SpecFile {
+    pub format: u32,
+    pub spec_hash: String,
+    pub title: String,
+    pub points: usize,
+    pub axes: Vec<Axis>,
+    /// Reference rays per scene and source (`scene/source` → rays).
+    pub reference_rays: BTreeMap<String, usize>,
+    pub shard: Option<Shard>,
+}
+
+/// The files of an output directory.
+pub const FILES: [&str; 6] = [
+    "spec.json",
+    "points.csv",
+    "points.json",
+    "host.csv",
+    "front.csv",
+    "report.md",
+];
+
+/// Every output of a run or merge into `dir`, for `output::check_outputs`.
+pub fn outputs(option: &str, dir: &Path) -> Vec<Output> {
+    let mut o = vec![
+        Output::dir(option, dir),
+        Output::dir(option, &dir.join("points")),
+    ];
+    o.extend(FILES.iter().map(|f| Output::file(option, &dir.join(f))));
+    o
+}
+
+/// A point's file name.
+pub fn point_file(dir: &Path, i: usize) -> PathBuf {
+    dir.join("points").join(format!("{i:06}.json"))
+}
+
+/// `scene/source`, the key of a reference.
+fn group_key(scene: &str, source: u32) -> String {
+    format!("{scene}/{source}")
+}
+
+/// The reference rays for each scene and source: the spec's `reference_rays`, else
+/// [`size::REFERENCE_FACTOR`] × the most rays any point casts there, at least
+/// [`size::REFERENCE_MIN`].
+pub fn reference_rays(spec: &Spec) -> BTreeMap<String, usize> {
+    let mut m: BTreeMap<String, usize> = BTreeMap::new();
+    for p in &spec.points {
+        let k = group_key(&spec.scenes[p.scene].scene.name, p.source);
+        let n = spec
+            .reference_rays
+            .unwrap_or((size::REFERENCE_FACTOR * p.rays).max(size::REFERENCE_MIN));
+        let e = m.entry(k).or_insert(n);
+        *e = (*e).max(n);
+    }
+    m
+}
+
+/// The spec's description as written into `DIR/spec.json`.
+pub fn spec_file(spec: &Spec, shard: Option<Shard>) -> SpecFile {
+    SpecFile {
+        format: FORMAT,
+        spec_hash: spec.hash.clone(),
+        title: spec.title.clone(),
+        points: spec.points.len(),
+        axes: spec.axes.clone(),
+        reference_rays: reference_rays(spec),
+        shard,
+    }
+}
+
+/// A cached reference, `DIR/reference/SCENE-SOURCE.json`.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+struct ReferenceFile {
+    scene: String,
+    source: u32,
+    rays: usize,
+    directions: String,
+    seed: u64,
+    /// F(source → j) by patch.
+    ff: Vec<f64>,
+}
+
+/// The high-ray float reference of `scene` from `source` (Malley directions, the sizing's
+/// reference seed), read from `dir`'s cache or computed and cached.
+fn reference(spec: &Spec, scene: usize, source: u32, rays: usize, dir: &Path) -> Result<Vec<f64>> {
+    let sc = &spec.scenes[scene];
+    let path = dir.join("reference").join(format!(
+        "{}-{source}.json",
+        output::file_stem(&sc.scene.name)
+    ));
+    if let Ok(text) = std::fs::read_to_string(&path) {
+        if let Ok(r) = serde_json::from_str::<ReferenceFile>(&text) {
+            if r.scene == sc.scene.name
+                && r.source == source
+                && r.rays == rays
+                && r.seed == size::REFERENCE_SEED
+                && r.ff.len() == sc.scene.patches.len()
+            {
+                return Ok(r.ff);
+            }
+        }
+    }
+    let cfg = crate::config::built_in();
+    let sh = Shared::new(&sc.scene, &sc.path, cfg, Model::Float)?;
+    let ms = crate::radiosity::matrix::MatrixSpec {
+        model: Model::Float,
+        rays,
+        directions: Directions::Malley,
+        seed: size::REFERENCE_SEED,
+        sources: source..source + 1,
+    };
+    let ff = run_row(&sh, &ms, source)?
+        .row(&sc.scene, source)
+        .dense(sc.scene.patches.len());
+    output::write_json(
+        &path,
+        &ReferenceFile {
+            scene: sc.scene.name.clone(),
+            source,
+            rays,
+            directions: "malley".into(),
+            seed: size::REFERENCE_SEED,
+            ff: ff.clone(),
+        },
+    )?;
+    Ok(ff)
+}
+
+/// Measures point `pt` against `reference` (by patch).
+pub fn evaluate(spec: &Spec, pt: &Point, reference: &[f64]) -> Result<(PointResult, HostFigures)> {
+    let start = std::time::Instant::now();
+    let sc = &spec.scenes[pt.scene];
+    let scene = &sc.scene;
+    let n = scene.patches.len();
+    let sh = Shared::new(scene, &sc.path, &pt.config, pt.level)?;
+    let run = run_row(&sh, &pt.matrix_spec(pt.level), pt.source)?;
+    let mismatches_vs_float = if pt.level == Model::Float {
+        0
+    } else {
+        let float = run_row(&sh, &pt.matrix_spec(Model::Float), pt.source)?;
+        float
+            .hits
+            .iter()
+            .zip(&run.hits)
+            .filter(|(a, b)| a != b)
+            .count() as u64
+    };
+    let f = run.row(scene, pt.source).dense(n);
+    let (mut max, mut sq, mut samp) = (0.0f64, 0.0f64, 0.0f64);
+    for (a, r) in f.iter().zip(reference) {
+        let d = (a - r).abs();
+        max = max.max(d);
+        sq += d * d;
+        samp = samp.max((r * (1.0 - r) / pt.rays as f64).max(0.0).sqrt());
+    }
+    let resolved = crate::config::resolve(&pt.config, scene.bounds.scale())?;
+    let cost = match &sh.host {
+        Some(host) => Some(size::cost_on(&resolved, scene, &sc.path, host)?),
+        None => None,
+    };
+    let stats = run.stats.as_ref();
+    if let Some(s) = stats {
+        if s.mismatches_vs_fixed != 0 {
+            return Err(Error::Check(format!(
+                "point {} ({}): the machine differs from the untimed model on {} rays",
+                pt.index,
+                pt.label(),
+                s.mismatches_vs_fixed
+            )));
+        }
+    }
+    let bound = stats.map(|s| Bound::of(s, &resolved));
+    let d = &resolved.datapath;
+    let m = &resolved.machine;
+    let result = PointResult {
+        index: pt.index,
+        scene: scene.name.clone(),
+        source: pt.source,
+        level: pt.level,
+        rays: pt.rays,
+        directions: format!("{:?}", pt.directions).to_lowercase(),
+        seed: pt.seed,
+        knobs: pt.knobs.clone(),
+        frac_bits: d.frac_bits,
+        t_frac_bits: d.t_frac_bits,
+        coord_int_bits: d.coord_int_bits,
+        t_int_bits: d.t_int_bits,
+        cell: m.cell_size.value(),
+        shell_radius: m.shell_radius.value(),
+        clusters: m.clusters,
+        ctus_per_cluster: m.ctus_per_cluster,
+        ray_buffer: m.ray_buffer_capacity,
+        patch_buffer: m.patch_buffer_capacity,
+        request_queue: m.request_queue_capacity,
+        balance: resolved.balance.enabled,
+        work_item_jobs: resolved.balance.work_item_jobs,
+        ff_err_max: max,
+        ff_err_rms: (sq / n.max(1) as f64).sqrt(),
+        sampling_err: samp,
+        err_over_sampling: if samp > 0.0 { max / samp } else { 0.0 },
+        mismatches_vs_float,
+        mismatches_vs_fixed: stats.map(|s| s.mismatches_vs_fixed),
+        cycles: stats.map(|s| s.cycles),
+        pipeline_efficiency: stats.map(|s| s.pipeline_efficiency),
+        bound_cycles: bound.map(|b| b.cycles()),
+        binds: bound.map(|b| b.binding().name().to_string()),
+        cost,
+    };
+    let host = HostFigures {
+        wall_s: start.elapsed().as_secs_f64(),
+        cycles_per_s: stats.map(|s| s.sim_rate_hz),
+    };
+    Ok((result, host))
+}
+
+/// How a run went.
+#[derive(Clone, Debug)]
+pub struct RunSummary {
+    pub points: usize,
+    pub computed: usize,
+    pub resumed: usize,
+    pub shard: Option<Shard>,
+}
+
+/// Reads `dir/spec.json`, if there is one.
+fn read_spec_file(dir: &Path) -> Result<Option<SpecFile>> {
+    let path = dir.join("spec.json");
+    match std::fs::read_to_string(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(Error::unreadable(&path, e)),
+        Ok(text) => serde_json::from_str(&text)
+            .map(Some)
+            .map_err(|e| Error::input(&path, format!("line {}", e.line()), e.to_string())),
+    }
+}
+
+/// A point's file in `dir`, when it holds a point of the spec `hash`.
+fn read_point(dir: &Path, i: usize, hash: &str) -> Option<PointFile> {
+    let text = std::fs::read_to_string(point_file(dir, i)).ok()?;
+    let f: PointFile = serde_json::from_str(&text).ok()?;
+    (f.spec_hash == hash && f.point.index == i).then_some(f)
+}
+
+/// Runs `spec` (or one shard of it) into `dir`: points already there are kept, the others
+/// measured in parallel (each written as it finishes), then the tables — and for a whole
+/// run the fronts, charts and report — written.
+pub fn run(
+    spec: &Spec,
+    dir: &Path,
+    shard: Option<Shard>,
+    show_progress: bool,
+) -> Result<RunSummary> {
+    let shard = shard.filter(|s| s.n > 1);
+    let sf = spec_file(spec, shard);
+    if let Some(old) = read_spec_file(dir)? {
+        if old.spec_hash != sf.spec_hash || old.shard != sf.shard {
+            return Err(Error::input(
+                &dir.join("spec.json"),
+                "spec_hash",
+                format!(
+                    "this directory holds a run of another spec or shard (hash {}, shard {}); this one is hash {}, shard {}: give another --out or remove it",
+                    old.spec_hash,
+                    shard_name(old.shard),
+                    sf.spec_hash,
+                    shard_name(sf.shard)
+                ),
+            ));
+        }
+    }
+    output::write_json(&dir.join("spec.json"), &sf)?;
+    let mine: Vec<&Point> = spec
+        .points
+        .iter()
+        .filter(|p| shard.is_none_or(|s| s.holds(p.index)))
+        .collect();
+    let mut done: BTreeMap<usize, PointFile> = BTreeMap::new();
+    for p in &mine {
+        if let Some(f) = read_point(dir, p.index, &spec.hash) {
+            done.insert(p.index, f);
+        }
+    }
+    let resumed = done.len();
+    let pending: Vec<&Point> = mine
+        .iter()
+        .copied()
+        .filter(|p| !done.contains_key(&p.index))
+        .collect();
+    // The references the pending points need, each once.
+    let mut groups: Vec<(usize, u32)> = pending.iter().map(|p| (p.scene, p.source)).collect();
+    groups.sort_unstable();
+    groups.dedup();
+    let rays = &sf.reference_rays;
+    let refs: Vec<((usize, u32), Vec<f64>)> = groups
+        .par_iter()
+        .map(|&(s, src)| {
+            let n = rays[&group_key(&spec.scenes[s].scene.name, src)];
+            reference(spec, s, src, n, dir).map(|r| ((s, src), r))
+        })
+        .collect::<Result<_>>()?;
+    let refs: BTreeMap<(usize, u32), Vec<f64>> = refs.into_iter().collect();
+    let mut progress =
+        show_progress.then(|| crate::progress::Progress::new(pending.len() as u64, "points"));
+    let block = (4 * rayon::current_num_threads()).max(8);
+    for chunk in pending.chunks(block) {
+        let part: Vec<Result<PointFile>> = chunk
+            .par_iter()
+            .map(|p| {
+                let (point, host) = evaluate(spec, p, &refs[&(p.scene, p.source)])?;
+                let f = PointFile {
+                    spec_hash: spec.hash.clone(),
+                    point,
+                    host,
+                };
+                output::write_json(&point_file(dir, p.index), &f)?;
+                Ok(f)
+            })
+            .collect();
+        for f in part {
+            let f = f?;
+            done.insert(f.point.index, f);
+        }
+        if let Some(p) = progress.as_mut() {
+            p.inc(chunk.len() as u64);
+        }
+    }
+    if let Some(p) = progress {
+        p.finish();
+    }
+    let files: Vec<PointFile> = done.into_values().collect();
+    report::write_all(dir, &sf, &files, shard.is_none())?;
+    Ok(RunSummary {
+        points: files.len(),
+        computed: pending.len(),
+        resumed,
+        shard,
+    })
+}
+
+/// `K/N`, or `none`.
+fn shard_name(s: Option<Shard>) -> String {
+    s.map_or("none".into(), |s| format!("{}/{}", s.k, s.n))
+}
+
+/// Joins the shard directories `shards` into `out`: the same files an unsharded run writes.
+/// Shards of different specs, or a point no shard holds, are refused (bad input).
+pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
+    let Some(first) = shards.first() else {
+        return Err(Error::Usage(
+            "explore merge: name at least one shard directory".into(),
+        ));
+    };
+    let mut sf: Option<(SpecFile, &PathBuf)> = None;
+    for d in shards {
+        let Some(s) = read_spec_file(d)? else {
+            return Err(Error::input(
+                &d.join("spec.json"),
+                "file",
+                "missing: not an `explore run` output directory",
+            ));
+        };
+        match &sf {
+            None => sf = Some((s, d)),
+            Some((f, fd)) => {
+                if s.spec_hash != f.spec_hash {
+                    return Err(Error::input(
+                        &d.join("spec.json"),
+                        "spec_hash",
+                        format!(
+                            "{} is a shard of another spec than {} (hash {} against {}): merge only shards of one spec",
+                            s.spec_hash,
+                            fd.display(),
+                            s.spec_hash,
+                            f.spec_hash
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let (mut whole, _) = sf.expect("at least one shard");
+    let mut files: BTreeMap<usize, PointFile> = BTreeMap::new();
+    for d in shards {
+        for i in 0..whole.points {
+            if files.contains_key(&i) {
+                continue;
+            }
+            if let Some(f) = read_point(d, i, &whole.spec_hash) {
+                files.insert(i, f);
+            }
+        }
+    }
+    let missing: Vec<usize> = (0..whole.points)
+        .filter(|i| !files.contains_key(i))
+        .collect();
+    if !missing.is_empty() {
+        let shown: Vec<String> = missing.iter().take(10).map(|i| i.to_string()).collect();
+        return Err(Error::input(
+            first,
+            "points",
+            format!(
+                "{} of {} points are in no shard (points {}{}): a shard has not finished",
+                missing.len(),
+                whole.points,
+                shown.join(", "),
+                if missing.len() > 10 { ", …" } else { "" }
+            ),
+        ));
+    }
+    whole.shard = None;
+    output::write_json(&out.join("spec.json"), &whole)?;
+    for f in files.values() {
+        output::write_json(&point_file(out, f.point.index), f)?;
+    }
+    let files: Vec<PointFile> = files.into_values().collect();
+    report::write_all(out, &whole, &files, true)?;
+    Ok(files.len())
+}
