@@ -12,8 +12,8 @@
 # to wait for the jobs, default 300), SLURM_CHECK_PORT (slurmctld's port, default 16817;
 # slurmd takes the next one), SLURM_CHECK_KEEP=1 (keep the temporary directory).
 set -euo pipefail
-cd "$(dirname "$0")/.."
-repo=$(pwd)
+repo=$(cd "$(dirname "$0")/.." && pwd)
+cd "$repo"
 mode=sweep
 case "${1:-}" in
   "") ;;
@@ -23,8 +23,13 @@ esac
 # The daemons run as root (SlurmUser=root): when not root, run the whole script under sudo.
 if [ "$(id -u)" -ne 0 ]; then
   exec sudo --preserve-env=CARGO_TARGET_DIR,SLURM_CHECK_TIMEOUT,SLURM_CHECK_PORT,SLURM_CHECK_KEEP,TMPDIR \
-    bash "$0" "$@"
+    bash "$repo/ci/slurm-check.sh" "$@"
 fi
+# Slurm's input variables from the calling environment (say, a CI job that is itself a
+# Slurm job) would shard the local run or redirect sbatch: drop them.
+for v in $(compgen -e | grep -E '^(SLURM_|SBATCH_|SQUEUE_|SINFO_)' | grep -v '^SLURM_CHECK_' || true); do
+  unset "$v"
+done
 start=$(date +%s)
 timeout_s=${SLURM_CHECK_TIMEOUT:-300}
 port=${SLURM_CHECK_PORT:-16817}
@@ -57,12 +62,14 @@ cleanup() {
   if [ "${#pids[@]}" -gt 0 ] && command -v squeue >/dev/null && [ -n "${SLURM_CONF:-}" ]; then
     # Our private cluster holds only our jobs: cancel whatever is left before the daemons go.
     local left
-    left=$(timeout 5 squeue -h -o %A 2>/dev/null | sort -u)
-    [ -n "$left" ] && timeout 5 scancel $left 2>/dev/null && sleep 1
+    mapfile -t left < <(timeout 5 squeue -h -o %A 2>/dev/null | sort -u)
+    [ "${#left[@]}" -gt 0 ] && timeout 5 scancel "${left[@]}" 2>/dev/null && sleep 1
   fi
-  local pid
-  for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null; done
-  for pid in "${pids[@]}"; do
+  # In reverse order (slurmd, slurmctld, munged), each given 5 s before it is killed.
+  local i pid
+  for ((i = ${#pids[@]} - 1; i >= 0; i--)); do
+    pid=${pids[$i]}
+    kill "$pid" 2>/dev/null
     for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
     kill -KILL "$pid" 2>/dev/null
     wait "$pid" 2>/dev/null
@@ -71,7 +78,8 @@ cleanup() {
   exit "$rc"
 }
 trap cleanup EXIT
-trap 'exit 130' INT TERM
+trap 'exit 130' INT
+trap 'exit 143' TERM
 
 # The tail of each daemon's log (or of its stderr, when it died before opening its log).
 logs() {
@@ -188,7 +196,7 @@ wait_jobs() {
     sleep 1
   done
   [ -n "$list" ] || fail "no job was submitted"
-  echo "$list" | sed 's/^/  /'
+  echo "$list" | awk '{ print "  " $0 }'
 }
 
 if [ "$mode" = smoke ]; then
