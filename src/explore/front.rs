@@ -22,19 +22,20 @@ pub fn front(pts: &[(f64, f64)]) -> Vec<usize> {
             .then(a.cmp(&b))
     });
     let mut out = Vec::new();
-    let mut best = f64::INFINITY;
+    // The least y at a smaller x (none yet).
+    let mut best: Option<f64> = None;
     let mut i = 0;
     while i < order.len() {
         let x = pts[order[i]].0;
         let y0 = pts[order[i]].1;
         let mut j = i;
         while j < order.len() && pts[order[j]].0 == x {
-            if pts[order[j]].1 == y0 && y0 < best {
+            if pts[order[j]].1 == y0 && best.is_none_or(|b| y0 < b) {
                 out.push(order[j]);
             }
             j += 1;
         }
-        best = best.min(y0);
+        best = Some(best.map_or(y0, |b| b.min(y0)));
         i = j;
     }
     out

@@ -535,24 +535,6 @@ pub fn parse(text: &str, file: &Path) -> Result<Spec> {
                 "missing: name at least one scene file (scene = \"…\")",
             ));
         }
-        for e in es {
-            let axis = match b.axes.iter().position(|a: &Axis| a.key == e.key) {
-                Some(i) => i,
-                None => {
-                    b.axes.push(Axis {
-                        key: e.key.clone(),
-                        values: Vec::new(),
-                    });
-                    b.axes.len() - 1
-                }
-            };
-            for v in &e.values {
-                let s = v.to_string();
-                if !b.axes[axis].values.contains(&s) {
-                    b.axes[axis].values.push(s);
-                }
-            }
-        }
         let mut pick = vec![0usize; es.len()];
         loop {
             let chosen: Vec<(&Entry, &Val)> = es
@@ -576,6 +558,24 @@ pub fn parse(text: &str, file: &Path) -> Result<Spec> {
             }
             if pick.iter().all(|&i| i == 0) {
                 break;
+            }
+        }
+    }
+    // The axes: every key's values in first-seen order.
+    for pt in &b.points {
+        for k in &pt.knobs {
+            let i = match b.axes.iter().position(|a| a.key == k.key) {
+                Some(i) => i,
+                None => {
+                    b.axes.push(Axis {
+                        key: k.key.clone(),
+                        values: Vec::new(),
+                    });
+                    b.axes.len() - 1
+                }
+            };
+            if !b.axes[i].values.contains(&k.value) {
+                b.axes[i].values.push(k.value.clone());
             }
         }
     }
@@ -701,11 +701,16 @@ impl Builder<'_> {
             (Some((r, _)), None) => r * PAPER_RAYS,
             (None, None) => PAPER_RAYS,
         };
+        // A scene is named by its name, not by the path the spec gives.
         let knobs: Vec<Knob> = chosen
             .iter()
             .map(|(e, v)| Knob {
                 key: e.key.clone(),
-                value: v.to_string(),
+                value: if e.key == "scene" {
+                    self.scenes[scene].scene.name.clone()
+                } else {
+                    v.to_string()
+                },
             })
             .collect();
         let label = knobs_label(&knobs);
@@ -770,7 +775,10 @@ impl Builder<'_> {
             config,
             knobs,
         };
-        if let Err(e) = matrix::validate(&pt.matrix_spec(level), &sc.scene, &sc.path) {
+        let checked =
+            crate::reference::rays::check_source_and_rays(&sc.scene, &sc.path, source, rays)
+                .and_then(|_| matrix::validate(&pt.matrix_spec(level), &sc.scene, &sc.path));
+        if let Err(e) = checked {
             let what = match e {
                 Error::Input { what, .. } | Error::Param { what, .. } => what,
                 e => e.to_string(),
