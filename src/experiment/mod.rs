@@ -22,6 +22,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::machine::TickOrder;
+use shellsim_hw::units::ctu::StateCycles;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -161,6 +162,11 @@ pub struct Point {
     /// Cycles a ready patch record waited for room in its cluster's patch buffer, holding
     /// every record behind it.
     pub memory_delivery_stall: u64,
+    /// CTU cycles per traversal state, summed over CTUs.
+    pub ctu_states: StateCycles,
+    /// Of the CTUs' JOIN cycles: waiting for patches, waiting for results (summed).
+    pub join_wait_patches: u64,
+    pub join_wait_results: u64,
     pub bound: Bound,
 }
 
@@ -193,6 +199,12 @@ impl Point {
             ctu_busy_max: ctus().map(|c| c.busy_cycles).max().unwrap_or(0),
             memory_busy: stats.memory.busy_cycles,
             memory_delivery_stall: stats.memory.delivery_stall_cycles,
+            ctu_states: ctus().fold(StateCycles::default(), |mut a, c| {
+                a.sum(&c.state_cycles);
+                a
+            }),
+            join_wait_patches: ctus().map(|c| c.join_wait_patches).sum(),
+            join_wait_results: ctus().map(|c| c.join_wait_results).sum(),
             bound: Bound::of(stats, cfg),
         }
     }

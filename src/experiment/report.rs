@@ -318,6 +318,46 @@ fn where_cycles_go(p: &Point) -> String {
     s
 }
 
+/// The CTUs' cycles by traversal state (markdown table), summed over CTUs.
+fn ctu_state_table(p: &Point) -> String {
+    let c = &p.ctu_states;
+    let total = c.total();
+    let mut s =
+        String::from("| CTU state | share of CTU-cycles | what it is |\n| --- | --- | --- |\n");
+    for (name, v, what) in [
+        (
+            "SCAN + REQUEST",
+            c.scan + c.request,
+            "looking at a cell's patch ids, sending requests (REQUEST: the request queue full)",
+        ),
+        ("STEP", c.step, "a DDA step"),
+        (
+            "SHELL_START + IDLE",
+            c.shell_start + c.idle,
+            "starting a shell",
+        ),
+        (
+            "JOIN, waiting for patches",
+            p.join_wait_patches,
+            "a requested patch record not yet arrived",
+        ),
+        (
+            "JOIN, waiting for results",
+            p.join_wait_results,
+            "every patch in, jobs still being issued or computed",
+        ),
+        (
+            "JOIN, joining",
+            c.join - p.join_wait_patches - p.join_wait_results,
+            "the cycle rays retire",
+        ),
+        ("DONE", c.done, "the sector is finished, the others are not"),
+    ] {
+        let _ = writeln!(s, "| {name} | {} | {what} |", pc(frac(v, total)));
+    }
+    s
+}
+
 /// The report (markdown), linking every figure.
 pub fn report(r: &PaperResults) -> String {
     let m = &r.base.machine;
@@ -609,8 +649,9 @@ pub fn report(r: &PaperResults) -> String {
             s,
             "- **Joins**: a sector's next (sub)shell starts only when every job of the current one\n\
              has come back (C_Join and R_Join), so each CTU alternates between issuing and waiting\n\
-             (the CTUs' idle share above also counts CTUs that have finished — the machine has no\n\
-             per-state counter to split the two) and the ICUs see the bursts.\n"
+             and the ICUs see the bursts. The CTUs' cycles by traversal state (summed over the {} CTUs):\n\n{}",
+            p.clusters * p.ctus_per_cluster,
+            ctu_state_table(p)
         );
     }
 

@@ -150,6 +150,12 @@ pub fn check_variant(file: &str, v: &Variant) -> RunOutput {
             s.cycles,
             "{repro}"
         );
+        // The per-state counters partition the cycles too; the join waits are JOIN cycles.
+        assert_eq!(c.state_cycles.total(), s.cycles, "{repro}");
+        assert!(
+            c.join_wait_patches + c.join_wait_results <= c.state_cycles.join,
+            "{repro}"
+        );
     }
     for c in &s.clusters {
         assert_eq!(

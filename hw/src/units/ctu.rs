@@ -96,6 +96,55 @@ pub struct CtuStats {
     pub results: u64,
     pub shells: u64,
     pub subshells: u64,
+    /// Cycles spent in each traversal state (they sum to all cycles).
+    pub state_cycles: StateCycles,
+    /// Of the JOIN cycles that did not join: waiting for a requested patch to arrive, and
+    /// (every patch in) waiting for jobs to be issued and their results to come back.
+    pub join_wait_patches: u64,
+    pub join_wait_results: u64,
+}
+
+/// Cycles per traversal state, one field per [`CtuState`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct StateCycles {
+    pub idle: u64,
+    pub shell_start: u64,
+    pub scan: u64,
+    pub request: u64,
+    pub step: u64,
+    pub join: u64,
+    pub done: u64,
+}
+
+impl StateCycles {
+    /// Adds `n` cycles to `state`.
+    pub fn add(&mut self, state: CtuState, n: u64) {
+        *match state {
+            CtuState::Idle => &mut self.idle,
+            CtuState::ShellStart => &mut self.shell_start,
+            CtuState::Scan => &mut self.scan,
+            CtuState::Request => &mut self.request,
+            CtuState::Step => &mut self.step,
+            CtuState::Join => &mut self.join,
+            CtuState::Done => &mut self.done,
+        } += n;
+    }
+
+    /// Adds every state's cycles of `o`.
+    pub fn sum(&mut self, o: &StateCycles) {
+        self.idle += o.idle;
+        self.shell_start += o.shell_start;
+        self.scan += o.scan;
+        self.request += o.request;
+        self.step += o.step;
+        self.join += o.join;
+        self.done += o.done;
+    }
+
+    /// The sum over states.
+    pub fn total(&self) -> u64 {
+        self.idle + self.shell_start + self.scan + self.request + self.step + self.join + self.done
+    }
 }
 
 /// What a CTU needs that is fixed for the run.
@@ -225,10 +274,24 @@ impl Ctu {
     /// Accounts `n` cycles skipped by the machine's cycle jump: busy while a DDA step runs,
     /// idle otherwise (waiting at a join, or done).
     pub fn skip(&mut self, n: u64) {
+        self.stats.state_cycles.add(self.state, n);
+        if self.state == CtuState::Join {
+            self.count_join_wait(n);
+        }
         if self.state == CtuState::Step {
             self.stats.busy_cycles += n;
         } else {
             self.stats.idle_cycles += n;
+        }
+    }
+
+    /// Accounts `n` cycles at a join that cannot happen yet: waiting for patches while any
+    /// requested one is still on its way, else for jobs and their results.
+    fn count_join_wait(&mut self, n: u64) {
+        if self.pending_loads > 0 {
+            self.stats.join_wait_patches += n;
+        } else {
+            self.stats.join_wait_results += n;
         }
     }
 
@@ -261,6 +324,7 @@ impl Ctu {
             self.skip(1);
             return;
         }
+        self.stats.state_cycles.add(self.state, 1);
         let me = UnitId::Ctu(self.p.cluster as usize, self.p.local as usize);
         let mut busy = false;
         let mut stalled = false;
@@ -384,6 +448,8 @@ impl Ctu {
                 if self.pending_loads == 0 && self.issuing.is_none() && self.outstanding == 0 {
                     self.join();
                     busy = true;
+                } else {
+                    self.count_join_wait(1);
                 }
             }
             CtuState::Done => {}
@@ -603,6 +669,14 @@ mod tests {
         jobs.sort();
         assert_eq!(jobs, vec![(0, 1), (0, 2), (1, 1), (1, 2)]);
         assert_eq!(ctu.stats.jobs_issued, 4);
+        // The per-state counters partition the cycles; a join that waited split its wait.
+        let st = &ctu.stats;
+        assert_eq!(
+            st.state_cycles.total(),
+            st.busy_cycles + st.stalled_cycles + st.idle_cycles
+        );
+        assert!(st.state_cycles.join > st.join_wait_patches + st.join_wait_results);
+        assert!(st.state_cycles.step >= 2 * st.dda_steps - 1, "{st:?}");
         assert_eq!(ctu.stats.results, 4);
         // Patch 1 goes out at once; patch 2 finds the request link still full (REQUEST).
         assert_eq!(
