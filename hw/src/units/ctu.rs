@@ -27,7 +27,8 @@ use crate::datapath::model::STOP_SLACK_T_LSB;
 use crate::datapath::record::{CellTable, RayRecord};
 use crate::datapath::{compare, FixedHit};
 use crate::link::{Link, UnitId};
-use crate::msg::{Job, JobResult, MemRequest, PatchArrival};
+use crate::msg::{Descriptor, Job, JobResult, MemRequest, PatchArrival};
+use crate::units::ray_pool::RayList;
 use bitvec::prelude::*;
 
 /// The traversal FSM's states.
@@ -102,6 +103,8 @@ pub struct CtuStats {
     /// (every patch in) waiting for jobs to be issued and their results to come back.
     pub join_wait_patches: u64,
     pub join_wait_results: u64,
+    /// Descriptors handed to the ray buffer (bundle only; their jobs are in `jobs_issued`).
+    pub descriptors: u64,
 }
 
 /// Cycles per traversal state, one field per [`CtuState`].
@@ -159,6 +162,9 @@ pub struct CtuParams {
     pub shell_raw: i64,
     pub t_frac: u32,
     pub t_max: i64,
+    /// `job_source = "bundle"`: one descriptor per arrived patch instead of one job per
+    /// (ray, patch).
+    pub bundle: bool,
 }
 
 /// The links a CTU drives or reads.
@@ -169,6 +175,10 @@ pub struct CtuPorts<'a> {
     pub results: &'a mut Link<JobResult>,
     /// Results of this CTU's jobs computed by other clusters (dynamic balancing).
     pub remote_results: &'a mut Link<JobResult>,
+    /// To the ray buffer: descriptors (bundle only).
+    pub descs: &'a mut Link<Descriptor>,
+    /// This CTU's ray pool (bundle only): written at joins, read by ray buffers.
+    pub pool: &'a mut RayList,
 }
 
 /// A cell traversal unit.
@@ -195,6 +205,8 @@ pub struct Ctu {
     /// The patch whose jobs are being issued and the next position in `remaining`.
     issuing: Option<(u32, usize)>,
     outstanding: u64,
+    /// The ray-pool list descriptors name (bundle only).
+    list: u8,
     pub stats: CtuStats,
 }
 
@@ -232,6 +244,7 @@ impl Ctu {
             pending_loads: 0,
             issuing: None,
             outstanding: 0,
+            list: 0,
             stats: CtuStats::default(),
         }
     }
@@ -365,6 +378,33 @@ impl Ctu {
                     stalled = true;
                 }
             }
+            None if self.p.bundle && !self.remaining.is_empty() => {
+                // One descriptor per arrived patch: the patch against every remaining ray.
+                if io.arrivals.peek().is_some() {
+                    if io.descs.can_push() {
+                        let a = io.arrivals.pop(me);
+                        self.pending_loads -= 1;
+                        let n = self.remaining.len() as u32;
+                        io.descs.push(
+                            me,
+                            Descriptor {
+                                patch: a.patch,
+                                ctu: self.p.local,
+                                owner: self.p.cluster,
+                                list: self.list,
+                                lo: 0,
+                                hi: n,
+                            },
+                        );
+                        self.outstanding += n as u64;
+                        self.stats.jobs_issued += n as u64;
+                        self.stats.descriptors += 1;
+                        busy = true;
+                    } else {
+                        stalled = true;
+                    }
+                }
+            }
             None => {
                 if io.arrivals.peek().is_some() {
                     let a = io.arrivals.pop(me);
@@ -446,7 +486,7 @@ impl Ctu {
             }
             CtuState::Join => {
                 if self.pending_loads == 0 && self.issuing.is_none() && self.outstanding == 0 {
-                    self.join();
+                    self.join(io.pool);
                     busy = true;
                 } else {
                     self.count_join_wait(1);
@@ -509,7 +549,7 @@ impl Ctu {
 
     /// The join: retire every ray that no unprocessed cell can give a nearer hit, then go on
     /// with the shell (after a subshell) or start the next one.
-    fn join(&mut self) {
+    fn join(&mut self, pool: &mut RayList) {
         let tf = self.p.t_frac;
         let resume_ray = self.remaining.get(self.cursor).copied();
         for &s in &self.remaining {
@@ -521,6 +561,12 @@ impl Ctu {
             };
         }
         self.remaining.retain(|&s| !self.slots[s as usize].retired);
+        if self.p.bundle {
+            // Every descriptor of the old list is back: write the other one.
+            self.list ^= 1;
+            let slots = &self.slots;
+            pool.write(self.list, &self.remaining, |s| slots[s as usize].ray);
+        }
         self.subshell_loads = 0;
         if self.shell_end {
             self.shell += 1;
@@ -577,6 +623,7 @@ mod tests {
             shell_raw: f.t.max_raw() as i64,
             t_frac: f.t.frac_bits,
             t_max: f.t.max_raw() as i64,
+            bundle: false,
         }
     }
 
@@ -596,6 +643,8 @@ mod tests {
         let mut jobs = Link::new(2).wired(me, UnitId::RayBuffer(0));
         let mut results = Link::new(2).wired(UnitId::Icu(0), me);
         let mut remote = Link::new(2).wired(UnitId::Balancer, me);
+        let mut descs = Link::new(2).wired(me, UnitId::RayBuffer(0));
+        let mut pool = RayList::new(&[0, 1]);
         let (mut states, mut asked, mut issued) = (vec![], vec![], vec![]);
         let mut in_memory: Vec<(u64, u32)> = vec![];
         for now in 0..500u64 {
@@ -605,6 +654,8 @@ mod tests {
                 jobs: &mut jobs,
                 results: &mut results,
                 remote_results: &mut remote,
+                descs: &mut descs,
+                pool: &mut pool,
             };
             ctu.tick(now, &mut io, &cells);
             if states.last() != Some(&ctu.state.name()) {
