@@ -119,4 +119,6 @@ testcases! { golden_variant;
     scene2_small_bundle => "scene2.json", "small", JobSource::Bundle, false;
     stress_skewed_paper_bundle => "stress-skewed.json", "paper", JobSource::Bundle, false;
     cornell_paper_bundle => "cornell.json", "paper", JobSource::Bundle, false;
+    scene2_paper_bundle_overlap => "scene2.json", "paper", JobSource::Bundle, true;
+    scene2_paper_ctu_overlap => "scene2.json", "paper", JobSource::Ctu, true;
 }

@@ -360,6 +360,18 @@ mod variants {
         bundle_cornell_c4_k2_small_step => "cornell.json", 4, 2, FixedPriority, true, false, false, Bundle, false;
         bundle_scene2_c8_k2_paper_jump => "scene2.json", 8, 2, RoundRobin, false, true, true, Bundle, false;
         bundle_stress_skewed_c4_k2_paper_jump => "stress-skewed.json", 4, 2, RoundRobin, false, true, true, Bundle, false;
+        overlap_scene1_c1_k2_small_step => "scene1.json", 1, 2, RoundRobin, true, false, false, Ctu, true;
+        overlap_scene1_c4_k4_paper_jump => "scene1.json", 4, 4, FixedPriority, false, true, true, Ctu, true;
+        overlap_cornell_c8_k1_paper_jump => "cornell.json", 8, 1, RoundRobin, false, true, false, Ctu, true;
+        overlap_scene2_c2_k2_paper_jump => "scene2.json", 2, 2, RoundRobin, false, true, false, Ctu, true;
+        bundle_overlap_scene1_c1_k4_paper_jump => "scene1.json", 1, 4, RoundRobin, false, true, false, Bundle, true;
+        bundle_overlap_scene1_c8_k2_small_step => "scene1.json", 8, 2, FixedPriority, true, false, true, Bundle, true;
+        bundle_overlap_cornell_c2_k1_paper_jump => "cornell.json", 2, 1, FixedPriority, false, true, true, Bundle, true;
+        bundle_overlap_cornell_c4_k2_small_jump => "cornell.json", 4, 2, RoundRobin, true, true, false, Bundle, true;
+        bundle_overlap_scene2_c8_k2_paper_jump => "scene2.json", 8, 2, RoundRobin, false, true, true, Bundle, true;
+        bundle_overlap_stress_grazing_c4_k2_paper_step => "stress-grazing.json", 4, 2, RoundRobin, false, false, true, Bundle, true;
+        bundle_overlap_stress_edges_c2_k4_small_jump => "stress-edges.json", 2, 4, RoundRobin, true, true, true, Bundle, true;
+        bundle_overlap_stress_dense_c4_k2_paper_jump => "stress-dense.json", 4, 2, RoundRobin, false, true, true, Bundle, true;
     }
 }
 
@@ -382,24 +394,30 @@ mod variant_tick_order {
         bundle_scene1_reverse => "scene1.json", JobSource::Bundle, false, TickOrder::Reverse;
         bundle_scene1_shuffled_7 => "scene1.json", JobSource::Bundle, false, TickOrder::Shuffled(7);
         bundle_cornell_shuffled_3 => "cornell.json", JobSource::Bundle, false, TickOrder::Shuffled(3);
+        overlap_scene1_shuffled_5 => "scene1.json", JobSource::Ctu, true, TickOrder::Shuffled(5);
+        bundle_overlap_scene1_reverse => "scene1.json", JobSource::Bundle, true, TickOrder::Reverse;
+        bundle_overlap_scene2_shuffled_11 => "scene2.json", JobSource::Bundle, true, TickOrder::Shuffled(11);
     }
 }
 
-/// The cycle jump changes no statistic under the bundle variant.
+/// The cycle jump changes no statistic under the bundle variant, joins overlapped or not.
 #[test]
-fn the_cycle_jump_changes_no_statistic_with_bundles() {
-    let run_with = |jump: bool| {
+fn the_cycle_jump_changes_no_statistic_with_the_variants() {
+    let run_with = |jump: bool, overlap: bool| {
         let mut c = config("paper");
         c.machine.dda_cycles_per_step = 20;
         c.machine.memory_latency = 60;
         c.machine.cycle_jump = jump;
         c.machine.job_source = JobSource::Bundle;
+        c.machine.overlap_joins = overlap;
         let scene = common::load("scene1.json");
         run(&scene, Path::new("scene1.json"), &c, &spec(), None).unwrap()
     };
-    let (a, b) = (run_with(true), run_with(false));
-    assert!(a.stats.skipped_cycles > 0);
-    assert_same_run(&a, &b, "scene1 bundle");
+    for overlap in [false, true] {
+        let (a, b) = (run_with(true, overlap), run_with(false, overlap));
+        assert!(a.stats.skipped_cycles > 0);
+        assert_same_run(&a, &b, &format!("scene1 bundle, overlap_joins {overlap}"));
+    }
 }
 
 #[test]

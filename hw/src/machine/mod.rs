@@ -127,6 +127,7 @@ impl<'a> Machine<'a> {
                             t_frac: f.t.frac_bits,
                             t_max: f.t.max_raw() as i64,
                             bundle,
+                            overlap: cfg.machine.overlap_joins,
                         };
                         Ctu::new(p, r, rays, &scene.cells, scene.patches.len())
                     })

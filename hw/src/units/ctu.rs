@@ -83,6 +83,17 @@ struct RaySlot {
     dda: Option<FixedDda>,
     best: Option<FixedHit>,
     retired: bool,
+    /// Overlapped joins: the position before the first step taken while traversing
+    /// subshell `snap_sub` (so the join of subshell `snap_sub − 1` sees where it ended).
+    snap: Option<FixedDda>,
+    snap_sub: u32,
+}
+
+/// Overlapped joins: a subshell whose traversal is over and whose jobs drain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Drain {
+    sub: u32,
+    phase: usize,
 }
 
 /// CTU counters (cycles partition into busy + stalled + idle).
@@ -165,6 +176,8 @@ pub struct CtuParams {
     /// `job_source = "bundle"`: one descriptor per arrived patch instead of one job per
     /// (ray, patch).
     pub bundle: bool,
+    /// `overlap_joins`: traverse the next subshell while the current one drains.
+    pub overlap: bool,
 }
 
 /// The links a CTU drives or reads.
@@ -207,6 +220,15 @@ pub struct Ctu {
     outstanding: u64,
     /// The ray-pool list descriptors name (bundle only).
     list: u8,
+    /// Overlapped joins: the subshell being traversed (its parity is its phase), the one
+    /// draining, pending loads and outstanding jobs per phase, each patch's phase, and the
+    /// ray whose step was under way when the traversal reached a subshell's end.
+    sub: u32,
+    draining: Option<Drain>,
+    pending_ph: [u32; 2],
+    outstanding_ph: [u64; 2],
+    phase_of: BitVec,
+    boundary_ray: Option<u32>,
     pub stats: CtuStats,
 }
 
@@ -226,6 +248,8 @@ impl Ctu {
                 dda: FixedDda::new(cells, &records[r as usize]),
                 best: None,
                 retired: false,
+                snap: None,
+                snap_sub: u32::MAX,
             })
             .collect();
         Ctu {
@@ -245,13 +269,26 @@ impl Ctu {
             issuing: None,
             outstanding: 0,
             list: 0,
+            sub: 0,
+            draining: None,
+            pending_ph: [0; 2],
+            outstanding_ph: [0; 2],
+            phase_of: if p.overlap {
+                bitvec![0; patches]
+            } else {
+                BitVec::new()
+            },
+            boundary_ray: None,
             stats: CtuStats::default(),
         }
     }
 
     /// True when the sector is finished.
     pub fn done(&self) -> bool {
-        self.state == CtuState::Done && self.issuing.is_none() && self.outstanding == 0
+        self.state == CtuState::Done
+            && self.issuing.is_none()
+            && self.outstanding == 0
+            && self.draining.is_none()
     }
 
     /// Each ray's nearest hit: (global ray id, hit).
@@ -301,7 +338,11 @@ impl Ctu {
     /// Accounts `n` cycles at a join that cannot happen yet: waiting for patches while any
     /// requested one is still on its way, else for jobs and their results.
     fn count_join_wait(&mut self, n: u64) {
-        if self.pending_loads > 0 {
+        let pending = match self.draining {
+            Some(d) if self.p.overlap => self.pending_ph[d.phase],
+            _ => self.pending_loads,
+        };
+        if pending > 0 {
             self.stats.join_wait_patches += n;
         } else {
             self.stats.join_wait_results += n;
@@ -312,6 +353,7 @@ impl Ctu {
     /// waiting at a join for patches still in memory, or done.
     pub fn quiet(&self, now: u64) -> bool {
         self.issuing.is_none()
+            && !self.draining.is_some_and(|d| self.drain_due(d))
             && match self.state {
                 CtuState::Step => self.timer > now,
                 CtuState::Join => self.outstanding == 0 && self.pending_loads > 0,
@@ -351,6 +393,9 @@ impl Ctu {
                     compare(&mut slot.best, FixedHit { patch: r.patch, t });
                 }
                 self.outstanding -= 1;
+                if self.p.overlap {
+                    self.outstanding_ph[self.phase_of[r.patch as usize] as usize] -= 1;
+                }
                 self.stats.results += 1;
                 busy = true;
             }
@@ -371,6 +416,9 @@ impl Ctu {
                         },
                     );
                     self.outstanding += 1;
+                    if self.p.overlap {
+                        self.outstanding_ph[self.phase_of[patch as usize] as usize] += 1;
+                    }
                     self.stats.jobs_issued += 1;
                     self.issuing = (i + 1 < self.remaining.len()).then_some((patch, i + 1));
                     busy = true;
@@ -383,7 +431,7 @@ impl Ctu {
                 if io.arrivals.peek().is_some() {
                     if io.descs.can_push() {
                         let a = io.arrivals.pop(me);
-                        self.pending_loads -= 1;
+                        self.arrived(a.patch);
                         let n = self.remaining.len() as u32;
                         io.descs.push(
                             me,
@@ -397,6 +445,10 @@ impl Ctu {
                             },
                         );
                         self.outstanding += n as u64;
+                        if self.p.overlap {
+                            self.outstanding_ph[self.phase_of[a.patch as usize] as usize] +=
+                                n as u64;
+                        }
                         self.stats.jobs_issued += n as u64;
                         self.stats.descriptors += 1;
                         busy = true;
@@ -408,12 +460,19 @@ impl Ctu {
             None => {
                 if io.arrivals.peek().is_some() {
                     let a = io.arrivals.pop(me);
-                    self.pending_loads -= 1;
+                    self.arrived(a.patch);
                     if !self.remaining.is_empty() {
                         self.issuing = Some((a.patch, 0));
                     }
                     busy = true;
                 }
+            }
+        }
+        // Overlapped joins: the draining subshell joins once its patches and jobs are in.
+        if let Some(d) = self.draining {
+            if self.drain_due(d) {
+                self.drain_join(d, io.pool);
+                busy = true;
             }
         }
         // Traversal FSM.
@@ -458,6 +517,11 @@ impl Ctu {
                         );
                         self.loaded.set(id as usize, true);
                         self.pending_loads += 1;
+                        if self.p.overlap {
+                            let ph = (self.sub & 1) as usize;
+                            self.phase_of.set(id as usize, ph == 1);
+                            self.pending_ph[ph] += 1;
+                        }
                         self.subshell_loads += 1;
                         self.stats.patch_requests += 1;
                         self.cell_pos += 1;
@@ -471,6 +535,7 @@ impl Ctu {
                     // Subshell full: join before stepping on (the cell is done).
                     self.shell_end = false;
                     self.start_step(now);
+                    self.boundary_ray = self.remaining.get(self.cursor).copied();
                     self.state = CtuState::Join;
                     busy = true;
                 } else {
@@ -482,6 +547,16 @@ impl Ctu {
                 busy = true;
                 if now >= self.timer {
                     self.after_step();
+                }
+            }
+            CtuState::Join if self.p.overlap => {
+                // The traversal reached a subshell's end: it goes on at once unless the
+                // subshell before is still draining (at most one subshell ahead).
+                if self.draining.is_none() {
+                    self.start_drain();
+                    busy = true;
+                } else {
+                    self.count_join_wait(1);
                 }
             }
             CtuState::Join => {
@@ -509,7 +584,14 @@ impl Ctu {
         while self.cursor < self.remaining.len() {
             let slot = &self.slots[self.remaining[self.cursor] as usize];
             if let Some(d) = &slot.dda {
-                if !d.entry_at_or_beyond(self.shell_limit, self.p.t_frac) {
+                // Overlapped joins: a ray that its hit so far already retires (its next cell
+                // starts beyond it, and later results can only bring the hit nearer) is not
+                // walked again; it retires at the next join.
+                let retires = self.p.overlap
+                    && slot
+                        .best
+                        .is_some_and(|b| d.entry_beyond(b.t + STOP_SLACK_T_LSB, self.p.t_frac));
+                if !retires && !d.entry_at_or_beyond(self.shell_limit, self.p.t_frac) {
                     self.cell_pos = 0;
                     return CtuState::Scan;
                 }
@@ -524,6 +606,10 @@ impl Ctu {
     fn start_step(&mut self, now: u64) {
         let slot = self.remaining[self.cursor] as usize;
         let mut dda = self.slots[slot].dda.expect("stepping a ray in the grid");
+        if self.p.overlap && self.slots[slot].snap_sub != self.sub {
+            self.slots[slot].snap = Some(dda);
+            self.slots[slot].snap_sub = self.sub;
+        }
         self.slots[slot].dda = dda.step().then_some(dda);
         self.stats.dda_steps += 1;
         self.timer = now + self.p.dda_cycles_per_step as u64;
@@ -545,6 +631,96 @@ impl Ctu {
             self.cursor += 1;
             self.state = self.enter_ray();
         }
+    }
+
+    /// A patch record arrived: one load fewer pending (and of its subshell's phase).
+    fn arrived(&mut self, patch: u32) {
+        self.pending_loads -= 1;
+        if self.p.overlap {
+            self.pending_ph[self.phase_of[patch as usize] as usize] -= 1;
+        }
+    }
+
+    /// True when draining subshell `d` may join: every patch it requested has arrived, its
+    /// jobs are all issued and every result is back.
+    fn drain_due(&self, d: Drain) -> bool {
+        self.pending_ph[d.phase] == 0
+            && self.outstanding_ph[d.phase] == 0
+            && !self
+                .issuing
+                .is_some_and(|(p, _)| self.phase_of[p as usize] as usize == d.phase)
+    }
+
+    /// Overlapped joins: the traversal of the current subshell is over; it drains, and the
+    /// traversal goes on with the next subshell (or shell).
+    fn start_drain(&mut self) {
+        self.draining = Some(Drain {
+            sub: self.sub,
+            phase: (self.sub & 1) as usize,
+        });
+        self.sub += 1;
+        self.subshell_loads = 0;
+        if self.shell_end {
+            self.shell += 1;
+            self.state = CtuState::ShellStart;
+        } else {
+            self.stats.subshells += 1;
+            // The step begun at the subshell's end goes on, unless its ray has retired.
+            self.state = if self.boundary_ray.is_some()
+                && self.remaining.get(self.cursor).copied() == self.boundary_ray
+            {
+                CtuState::Step
+            } else {
+                self.enter_ray()
+            };
+        }
+    }
+
+    /// Overlapped joins: the join of draining subshell `d` — the exact rule against each
+    /// ray's position at the end of `d` (before any step the traversal took since) — while
+    /// the traversal and the issuer go on at the same rays in the shorter list.
+    fn drain_join(&mut self, d: Drain, pool: &mut RayList) {
+        let tf = self.p.t_frac;
+        let resume = self.remaining.get(self.cursor).copied();
+        let issuing = self.issuing.map(|(p, i)| (p, self.remaining[i]));
+        for &s in &self.remaining {
+            let slot = &mut self.slots[s as usize];
+            let pos = if slot.snap_sub == d.sub + 1 {
+                slot.snap
+            } else {
+                slot.dda
+            };
+            slot.retired = match (&pos, slot.best) {
+                (None, _) => true,
+                (Some(p), Some(b)) => p.entry_beyond(b.t + STOP_SLACK_T_LSB, tf),
+                (Some(_), None) => false,
+            };
+        }
+        self.remaining.retain(|&s| !self.slots[s as usize].retired);
+        if self.p.bundle {
+            self.list ^= 1;
+            let slots = &self.slots;
+            pool.write(self.list, &self.remaining, |s| slots[s as usize].ray);
+        }
+        self.cursor = match resume {
+            Some(r) => self.remaining.partition_point(|&s| s < r),
+            None => self.remaining.len(),
+        };
+        if let Some((p, r)) = issuing {
+            let i = self.remaining.partition_point(|&s| s < r);
+            self.issuing = (i < self.remaining.len()).then_some((p, i));
+        }
+        let moved = self.remaining.get(self.cursor).copied() != resume;
+        if moved
+            && matches!(
+                self.state,
+                CtuState::Scan | CtuState::Request | CtuState::Step
+            )
+        {
+            // The ray being walked retired: the traversal goes on with the next one.
+            self.state = self.enter_ray();
+        }
+        self.draining = None;
     }
 
     /// The join: retire every ray that no unprocessed cell can give a nearer hit, then go on
@@ -624,6 +800,7 @@ mod tests {
             t_frac: f.t.frac_bits,
             t_max: f.t.max_raw() as i64,
             bundle: false,
+            overlap: false,
         }
     }
 
