@@ -646,9 +646,9 @@ impl Ctu {
     fn drain_due(&self, d: Drain) -> bool {
         self.pending_ph[d.phase] == 0
             && self.outstanding_ph[d.phase] == 0
-            && !self
+            && self
                 .issuing
-                .is_some_and(|(p, _)| self.phase_of[p as usize] as usize == d.phase)
+                .is_none_or(|(p, _)| self.phase_of[p as usize] as usize != d.phase)
     }
 
     /// Overlapped joins: the traversal of the current subshell is over; it drains, and the
