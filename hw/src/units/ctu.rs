@@ -428,7 +428,16 @@ impl Ctu {
             }
             None if self.p.bundle && !self.remaining.is_empty() => {
                 // One descriptor per arrived patch: the patch against every remaining ray.
-                if io.arrivals.peek().is_some() {
+                // With overlapped joins a patch of the next subshell waits in the patch
+                // buffer until the draining subshell joins, so that its descriptor names
+                // the rays that join leaves (none it retires).
+                let held = |a: &PatchArrival| {
+                    self.draining
+                        .is_some_and(|d| self.phase_of[a.patch as usize] as usize != d.phase)
+                };
+                if io.arrivals.peek().is_some_and(held) {
+                    stalled = true;
+                } else if io.arrivals.peek().is_some() {
                     if io.descs.can_push() {
                         let a = io.arrivals.pop(me);
                         self.arrived(a.patch);
