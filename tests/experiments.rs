@@ -13,7 +13,7 @@ use shellsim::experiment::{
     Point, Workload,
 };
 use shellsim::machine::run::{run, RunSpec};
-use shellsim_hw::config::{ArbiterPolicy, MachineConfig, VictimPolicy};
+use shellsim_hw::config::{ArbiterPolicy, JobSource, MachineConfig, VictimPolicy};
 use shellsim_hw::machine::TickOrder;
 use std::path::Path;
 use std::process::Command;
@@ -100,6 +100,9 @@ struct Random {
     request_queue: u32,
     fixed_priority: bool,
     jump: bool,
+    /// Issue 14's variants.
+    bundle: bool,
+    overlap_joins: bool,
 }
 
 impl Random {
@@ -117,6 +120,12 @@ impl Random {
             ArbiterPolicy::RoundRobin
         };
         m.cycle_jump = self.jump;
+        m.job_source = if self.bundle {
+            JobSource::Bundle
+        } else {
+            JobSource::Ctu
+        };
+        m.overlap_joins = self.overlap_joins;
         let b = &mut c.balance;
         b.enabled = self.balance;
         b.work_item_jobs = self.work_item;
@@ -144,6 +153,7 @@ fn random() -> impl Strategy<Value = Random> {
         (1u32..=64, 1u32..=128, 1u32..=64),
         (0u32..=24, 1u32..=4, any::<bool>()),
         (1u32..=8, 1u32..=3, any::<bool>(), any::<bool>()),
+        (any::<bool>(), any::<bool>()),
     )
         .prop_map(
             |(
@@ -151,6 +161,7 @@ fn random() -> impl Strategy<Value = Random> {
                 (ray_buffer, work_item, sampling),
                 (link_latency, link_width, round_robin_victim),
                 (patch_buffer, request_queue, fixed_priority, jump),
+                (bundle, overlap_joins),
             )| Random {
                 cornell,
                 clusters,
@@ -167,6 +178,8 @@ fn random() -> impl Strategy<Value = Random> {
                 request_queue,
                 fixed_priority,
                 jump,
+                bundle,
+                overlap_joins,
             },
         )
 }

@@ -7,6 +7,7 @@ mod common;
 
 use serde_json::{json, Value};
 use shellsim::machine::run::run;
+use shellsim_hw::config::JobSource;
 use std::path::{Path, PathBuf};
 
 /// The figures a golden pins.
@@ -37,12 +38,36 @@ fn key_figures(s: &shellsim::machine::run::RunStats) -> Value {
 }
 
 fn golden(scene_file: &str, config: &str) {
+    golden_of(scene_file, config, None);
+}
+
+/// A golden of a machine variant (issue 14): `variant` is (job_source, overlap_joins), and
+/// its name is part of the golden's file name.
+fn golden_variant(scene_file: &str, config: &str, job_source: JobSource, overlap_joins: bool) {
+    golden_of(scene_file, config, Some((job_source, overlap_joins)));
+}
+
+fn golden_of(scene_file: &str, config: &str, variant: Option<(JobSource, bool)>) {
     let scene = common::load(scene_file);
-    let cfg = common::config(config);
+    let mut cfg = common::config(config);
+    let mut suffix = String::new();
+    if let Some((source, overlap)) = variant {
+        cfg.machine.job_source = source;
+        cfg.machine.overlap_joins = overlap;
+        suffix = format!(
+            "__{}{}",
+            source.name(),
+            if overlap { "_overlap" } else { "" }
+        );
+    }
     let out = run(&scene, Path::new(scene_file), &cfg, &common::spec(), None).unwrap();
     assert_eq!(out.stats.mismatches_vs_fixed, 0);
     let text = serde_json::to_string_pretty(&key_figures(&out.stats)).unwrap() + "\n";
-    let name = format!("{}__{}.json", scene_file.trim_end_matches(".json"), config);
+    let name = format!(
+        "{}__{}{suffix}.json",
+        scene_file.trim_end_matches(".json"),
+        config
+    );
     let path: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/golden")
         .join(&name);
@@ -87,4 +112,13 @@ testcases! { golden;
     stress_skewed_small => "stress-skewed.json", "small";
     stress_dense_paper => "stress-dense.json", "paper";
     stress_dense_small => "stress-dense.json", "small";
+}
+
+testcases! { golden_variant;
+    scene2_paper_bundle => "scene2.json", "paper", JobSource::Bundle, false;
+    scene2_small_bundle => "scene2.json", "small", JobSource::Bundle, false;
+    stress_skewed_paper_bundle => "stress-skewed.json", "paper", JobSource::Bundle, false;
+    cornell_paper_bundle => "cornell.json", "paper", JobSource::Bundle, false;
+    scene2_paper_bundle_overlap => "scene2.json", "paper", JobSource::Bundle, true;
+    scene2_paper_ctu_overlap => "scene2.json", "paper", JobSource::Ctu, true;
 }

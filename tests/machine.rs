@@ -8,7 +8,7 @@ mod common;
 
 use common::{assert_same_run, check_variant, config, run_variant, spec, Variant};
 use shellsim::machine::run::run;
-use shellsim_hw::config::ArbiterPolicy;
+use shellsim_hw::config::{ArbiterPolicy, JobSource};
 use shellsim_hw::machine::TickOrder;
 use std::path::Path;
 
@@ -27,6 +27,8 @@ const fn cell(
         small_buffers: small,
         jump,
         balance: None,
+        job_source: JobSource::Ctu,
+        overlap_joins: false,
     }
 }
 
@@ -200,6 +202,8 @@ fn tick_order_changes_nothing(file: &str, balance: bool, order: TickOrder) {
         small_buffers: !balance,
         jump: false,
         balance: Some(balance),
+        job_source: JobSource::Ctu,
+        overlap_joins: false,
     };
     let fwd = run_variant(file, &v, TickOrder::Forward);
     if balance {
@@ -323,4 +327,136 @@ fn waveforms_are_the_same_with_and_without_the_cycle_jump() {
         first.map(|i| (&logs[0][i], &logs[1][i]))
     );
     assert_eq!(logs[0].len(), logs[1].len());
+}
+
+/// Issue 14's machine variants (`job_source`, `overlap_joins`) on a subset of the matrix
+/// that takes every value of every knob, one `#[test]` per cell, with balancing off and on:
+/// equality with the untimed model and conservation (`check_variant`).
+macro_rules! variant_cells {
+    ($($name:ident => $file:literal, $cn:literal, $kn:literal, $an:ident, $bn:literal, $jn:literal, $bal:literal, $src:ident, $ov:literal;)*) => {$(
+        #[test]
+        fn $name() {
+            let v = Variant {
+                balance: Some($bal),
+                ..cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn)
+            }
+            .with(JobSource::$src, $ov);
+            let out = check_variant($file, &v);
+            if $bal && $cn > 1 {
+                // Balancing is exercised: work moved between clusters.
+                assert!(out.stats.balancer.work_items > 0, "{}", v.repro($file));
+            }
+        }
+    )*};
+}
+
+mod variants {
+    use super::*;
+    variant_cells! {
+        bundle_scene1_c1_k1_small_jump => "scene1.json", 1, 1, RoundRobin, true, true, false, Bundle, false;
+        bundle_scene1_c2_k4_paper_step => "scene1.json", 2, 4, FixedPriority, false, false, true, Bundle, false;
+        bundle_scene1_c8_k2_small_jump => "scene1.json", 8, 2, RoundRobin, true, true, true, Bundle, false;
+        bundle_cornell_c4_k1_paper_jump => "cornell.json", 4, 1, RoundRobin, false, true, true, Bundle, false;
+        bundle_cornell_c4_k2_small_step => "cornell.json", 4, 2, FixedPriority, true, false, false, Bundle, false;
+        bundle_scene2_c8_k2_paper_jump => "scene2.json", 8, 2, RoundRobin, false, true, true, Bundle, false;
+        bundle_stress_skewed_c4_k2_paper_jump => "stress-skewed.json", 4, 2, RoundRobin, false, true, true, Bundle, false;
+        overlap_scene1_c1_k2_small_step => "scene1.json", 1, 2, RoundRobin, true, false, false, Ctu, true;
+        overlap_scene1_c4_k4_paper_jump => "scene1.json", 4, 4, FixedPriority, false, true, true, Ctu, true;
+        overlap_cornell_c8_k1_paper_jump => "cornell.json", 8, 1, RoundRobin, false, true, false, Ctu, true;
+        overlap_scene2_c2_k2_paper_jump => "scene2.json", 2, 2, RoundRobin, false, true, false, Ctu, true;
+        bundle_overlap_scene1_c1_k4_paper_jump => "scene1.json", 1, 4, RoundRobin, false, true, false, Bundle, true;
+        bundle_overlap_scene1_c8_k2_small_step => "scene1.json", 8, 2, FixedPriority, true, false, true, Bundle, true;
+        bundle_overlap_cornell_c2_k1_paper_jump => "cornell.json", 2, 1, FixedPriority, false, true, true, Bundle, true;
+        bundle_overlap_cornell_c4_k2_small_jump => "cornell.json", 4, 2, RoundRobin, true, true, false, Bundle, true;
+        bundle_overlap_scene2_c8_k2_paper_jump => "scene2.json", 8, 2, RoundRobin, false, true, true, Bundle, true;
+        bundle_overlap_stress_grazing_c4_k2_paper_step => "stress-grazing.json", 4, 2, RoundRobin, false, false, true, Bundle, true;
+        bundle_overlap_stress_edges_c2_k4_small_jump => "stress-edges.json", 2, 4, RoundRobin, true, true, true, Bundle, true;
+        bundle_overlap_stress_dense_c4_k2_paper_jump => "stress-dense.json", 4, 2, RoundRobin, false, true, true, Bundle, true;
+    }
+}
+
+/// Tick order changes nothing under a variant, with balancing on (work-items move).
+fn variant_tick_order(file: &str, job_source: JobSource, overlap: bool, order: TickOrder) {
+    let v = Variant {
+        balance: Some(true),
+        ..cell(4, 2, ArbiterPolicy::RoundRobin, false, false)
+    }
+    .with(job_source, overlap);
+    let fwd = run_variant(file, &v, TickOrder::Forward);
+    assert!(fwd.stats.balancer.work_items > 0, "{}", v.repro(file));
+    let other = run_variant(file, &v, order);
+    assert_same_run(&other, &fwd, &format!("{file} {order:?} {v:?}"));
+}
+
+mod variant_tick_order {
+    use super::*;
+    testcases! { variant_tick_order;
+        bundle_scene1_reverse => "scene1.json", JobSource::Bundle, false, TickOrder::Reverse;
+        bundle_scene1_shuffled_7 => "scene1.json", JobSource::Bundle, false, TickOrder::Shuffled(7);
+        bundle_cornell_shuffled_3 => "cornell.json", JobSource::Bundle, false, TickOrder::Shuffled(3);
+        overlap_scene1_shuffled_5 => "scene1.json", JobSource::Ctu, true, TickOrder::Shuffled(5);
+        bundle_overlap_scene1_reverse => "scene1.json", JobSource::Bundle, true, TickOrder::Reverse;
+        bundle_overlap_scene2_shuffled_11 => "scene2.json", JobSource::Bundle, true, TickOrder::Shuffled(11);
+    }
+}
+
+/// The cycle jump changes no statistic under the bundle variant, joins overlapped or not.
+#[test]
+fn the_cycle_jump_changes_no_statistic_with_the_variants() {
+    let run_with = |jump: bool, overlap: bool| {
+        let mut c = config("paper");
+        c.machine.dda_cycles_per_step = 20;
+        c.machine.memory_latency = 60;
+        c.machine.cycle_jump = jump;
+        c.machine.job_source = JobSource::Bundle;
+        c.machine.overlap_joins = overlap;
+        let scene = common::load("scene1.json");
+        run(&scene, Path::new("scene1.json"), &c, &spec(), None).unwrap()
+    };
+    for overlap in [false, true] {
+        let (a, b) = (run_with(true, overlap), run_with(false, overlap));
+        assert!(a.stats.skipped_cycles > 0);
+        assert_same_run(&a, &b, &format!("scene1 bundle, overlap_joins {overlap}"));
+    }
+}
+
+#[test]
+fn the_waveform_shows_descriptors_their_expansion_and_splits() {
+    let mut c = config("paper");
+    c.machine.job_source = JobSource::Bundle;
+    let scene = common::load("scene1.json");
+    let mut log = ChangeLog::new();
+    let out = run(
+        &scene,
+        Path::new("scene1.json"),
+        &c,
+        &spec(),
+        Some(&mut log),
+    )
+    .unwrap();
+    assert!(out.stats.balancer.work_items > 0);
+    let changed = |name: &str| log.changes.iter().filter(|l| l.contains(name)).count();
+    for name in [
+        "ctu_0.descriptors=",
+        "ray_buffer.descriptors=",
+        "ray_buffer.expanding_patch=",
+        "ray_buffer.expanding_left=",
+        "ray_buffer.splits=",
+        "ray_buffer.net_descriptors.transfers=",
+        "ctu_1.descriptors.transfers=",
+    ] {
+        assert!(changed(name) > 1, "{name} never changes");
+    }
+    // The ctu machine's waveform has none of them.
+    c.machine.job_source = JobSource::Ctu;
+    let mut plain = ChangeLog::new();
+    run(
+        &scene,
+        Path::new("scene1.json"),
+        &c,
+        &spec(),
+        Some(&mut plain),
+    )
+    .unwrap();
+    assert!(!plain.names.iter().any(|n| n.contains("descriptor")));
 }

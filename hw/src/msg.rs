@@ -39,13 +39,48 @@ pub struct SplitOrder {
     pub jobs: u32,
 }
 
-/// A work-item on its way from a victim to a thief.
+/// A work-item on its way from a victim to a thief: jobs (`job_source = "ctu"`) or a
+/// descriptor split off a waiting one (`"bundle"`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct WorkItem {
     pub from: u16,
     pub to: u16,
     pub jobs: Vec<Job>,
+    pub desc: Option<Descriptor>,
 }
+
+/// A bundle of jobs (`job_source = "bundle"`): `patch` against the rays at positions
+/// `lo..hi` of list `list` of the owner CTU's ray pool ([`crate::units::ray_pool`]). The
+/// ray buffer expands it into jobs, one per cycle; a split hands the back part to a thief.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Descriptor {
+    pub patch: u32,
+    pub ctu: u16,
+    pub owner: u16,
+    pub list: u8,
+    pub lo: u32,
+    pub hi: u32,
+}
+
+impl Descriptor {
+    /// The jobs it stands for.
+    pub fn jobs(&self) -> u32 {
+        self.hi - self.lo
+    }
+
+    /// Words it takes on the inter-cluster link with its ray ids: the descriptor (patch
+    /// id; CTU, owner, count) and one word per ray id.
+    pub fn link_words(&self) -> u64 {
+        DESCRIPTOR_WORDS as u64 + self.jobs() as u64 * RAY_ID_WORDS as u64
+    }
+}
+
+/// Memory words of a descriptor on the inter-cluster link (patch id; CTU, owner, count).
+pub const DESCRIPTOR_WORDS: u32 = 2;
+
+/// Memory words of one ray id moved with a split descriptor (the thief needs the ids: the
+/// owner's ray pool is not in its cluster).
+pub const RAY_ID_WORDS: u32 = 1;
 
 /// A result computed by another cluster's ICU, on its way back to its owner.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -20,8 +20,9 @@ use crate::machine::run::{self, MachineInput, Prepared, RunSpec, RunStats};
 use crate::Scene;
 use rayon::prelude::*;
 use serde::Serialize;
-use shellsim_hw::config::MachineConfig;
+use shellsim_hw::config::{JobSource, MachineConfig};
 use shellsim_hw::machine::TickOrder;
+use shellsim_hw::units::ctu::StateCycles;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -46,7 +47,8 @@ pub enum Resource {
     Memory,
     /// The busiest CTU's DDA: its steps × `dda_cycles_per_step` (steps never move).
     CtuDda,
-    /// The busiest CTU's job issuer: one job per cycle (issuing never moves either).
+    /// The busiest CTU's job issuer: one job per cycle (issuing never moves either); with
+    /// `job_source = "bundle"`, one descriptor per cycle.
     CtuIssue,
 }
 
@@ -73,7 +75,7 @@ pub struct Bound {
     pub memory: u64,
     /// The busiest CTU's DDA steps × cycles per step.
     pub ctu_dda: u64,
-    /// The most jobs any one CTU issued (one per cycle).
+    /// The most jobs any one CTU issued (one per cycle); bundle: the most descriptors.
     pub ctu_issue: u64,
 }
 
@@ -121,7 +123,11 @@ impl Bound {
             memory: stats.memory.words + cfg.machine.memory_latency as u64,
             ctu_dda: ctus.clone().map(|c| c.dda_steps).max().unwrap_or(0)
                 * cfg.machine.dda_cycles_per_step as u64,
-            ctu_issue: ctus.map(|c| c.jobs_issued).max().unwrap_or(0),
+            ctu_issue: if cfg.machine.job_source == JobSource::Bundle {
+                ctus.map(|c| c.descriptors).max().unwrap_or(0)
+            } else {
+                ctus.map(|c| c.jobs_issued).max().unwrap_or(0)
+            },
         }
     }
 }
@@ -161,6 +167,11 @@ pub struct Point {
     /// Cycles a ready patch record waited for room in its cluster's patch buffer, holding
     /// every record behind it.
     pub memory_delivery_stall: u64,
+    /// CTU cycles per traversal state, summed over CTUs.
+    pub ctu_states: StateCycles,
+    /// Of the CTUs' JOIN cycles: waiting for patches, waiting for results (summed).
+    pub join_wait_patches: u64,
+    pub join_wait_results: u64,
     pub bound: Bound,
 }
 
@@ -193,6 +204,12 @@ impl Point {
             ctu_busy_max: ctus().map(|c| c.busy_cycles).max().unwrap_or(0),
             memory_busy: stats.memory.busy_cycles,
             memory_delivery_stall: stats.memory.delivery_stall_cycles,
+            ctu_states: ctus().fold(StateCycles::default(), |mut a, c| {
+                a.sum(&c.state_cycles);
+                a
+            }),
+            join_wait_patches: ctus().map(|c| c.join_wait_patches).sum(),
+            join_wait_results: ctus().map(|c| c.join_wait_results).sum(),
             bound: Bound::of(stats, cfg),
         }
     }

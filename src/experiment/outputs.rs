@@ -132,6 +132,16 @@ pub fn work_item_outputs(w: &Workload, rows: &WorkItemRows) -> Result<Outputs> {
 
 /// CSV, SVG and summary of the speedup experiment.
 pub fn speedup_outputs(w: &Workload, rows: &[SpeedupRow]) -> Result<Outputs> {
+    speedup_outputs_of(w, rows, None)
+}
+
+/// The speedup experiment's outputs on a machine variant: `variant` is its file-name
+/// suffix and its name in the title (`None`: the machine as configured).
+pub fn speedup_outputs_of(
+    w: &Workload,
+    rows: &[SpeedupRow],
+    variant: Option<(&str, &str)>,
+) -> Result<Outputs> {
     let mut summary =
         String::from("   P  balance   cycles  speedup  same-work  bound(same work)  binds\n");
     for r in rows {
@@ -146,13 +156,18 @@ pub fn speedup_outputs(w: &Workload, rows: &[SpeedupRow]) -> Result<Outputs> {
             r.point.bound.binding().name()
         ));
     }
-    let title = format!(
+    let mut title = format!(
         "{}: speedup vs ICUs (Hi_Low_Ratio {})",
         w.scene.name,
         rows.first().map_or(0, |r| r.point.ratio)
     );
+    let mut stem = stem_of(Which::Speedup, w);
+    if let Some((suffix, name)) = variant {
+        title.push_str(&format!(", {name}"));
+        stem.push_str(&format!("-{suffix}"));
+    }
     Ok(Outputs {
-        stem: stem_of(Which::Speedup, w),
+        stem,
         csv: super::speedup_csv(rows),
         svg: speedup_svg(&title, rows)?,
         summary,

@@ -7,7 +7,9 @@
 //! **Invariant:** the report and every file it links hold no timing: the same build gives
 //! byte-identical output.
 
-use super::outputs::{efficiency_outputs, speedup_outputs, work_item_outputs, Outputs};
+use super::outputs::{
+    efficiency_outputs, speedup_outputs, speedup_outputs_of, work_item_outputs, Outputs,
+};
 use super::{
     frac, machine, measure, one_cluster, prepare, Point, SpeedupRow, WorkItemRows, Workload,
 };
@@ -20,7 +22,7 @@ use crate::paper::{
 };
 use crate::scene::gen::{self, Kind};
 use rayon::prelude::*;
-use shellsim_hw::config::MachineConfig;
+use shellsim_hw::config::{JobSource, MachineConfig};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -41,6 +43,90 @@ impl WhatIf {
     }
 }
 
+/// One of issue 14's machine variants — where jobs are made, overlapped joins — measured
+/// like Fig 12.15: P = 1, 2, 4, 8, balancing off and on, each P's same-work T(1) on one ICU
+/// of the same variant fed by the same P × K CTUs.
+#[derive(Clone, Debug)]
+pub struct MachineVariant {
+    pub job_source: JobSource,
+    pub overlap_joins: bool,
+    pub rows: Vec<SpeedupRow>,
+}
+
+impl MachineVariant {
+    /// Its name in the report.
+    pub fn name(&self) -> String {
+        format!(
+            "job_source = {}, overlap_joins = {}",
+            self.job_source.name(),
+            self.overlap_joins
+        )
+    }
+
+    /// Its file-name suffix.
+    pub fn slug(&self) -> String {
+        format!(
+            "{}{}",
+            self.job_source.name(),
+            if self.overlap_joins { "-overlap" } else { "" }
+        )
+    }
+
+    /// The row at `p` ICUs with balancing `on`.
+    pub fn at(&self, p: u32, on: bool) -> Option<&SpeedupRow> {
+        speedup_row(&self.rows, p, on)
+    }
+
+    /// Its same-work speedup at 8 ICUs, balancing on.
+    pub fn speedup8(&self) -> f64 {
+        self.at(WORK_ITEM_CLUSTERS, true)
+            .map_or(0.0, |r| r.speedup_same_work)
+    }
+}
+
+/// The variants: today's machine (`rows`, already measured) and the three others, on `w`.
+fn machine_variants(w: &Workload, today: &[SpeedupRow]) -> Result<Vec<MachineVariant>> {
+    [
+        (JobSource::Ctu, false),
+        (JobSource::Ctu, true),
+        (JobSource::Bundle, false),
+        (JobSource::Bundle, true),
+    ]
+    .into_par_iter()
+    .map(|(job_source, overlap_joins)| {
+        let rows = if (job_source, overlap_joins) == (JobSource::Ctu, false) {
+            today.to_vec()
+        } else {
+            let base = with_variant(w.base, job_source, overlap_joins);
+            super::speedup(
+                &Workload { base: &base, ..*w },
+                &SPEEDUP_CLUSTERS,
+                PAPER_RATIO,
+            )?
+        };
+        Ok(MachineVariant {
+            job_source,
+            overlap_joins,
+            rows,
+        })
+    })
+    .collect()
+}
+
+/// `base` with jobs made at `job_source` and joins overlapped or not.
+fn with_variant(base: &MachineConfig, job_source: JobSource, overlap_joins: bool) -> MachineConfig {
+    let mut c = *base;
+    c.machine.job_source = job_source;
+    c.machine.overlap_joins = overlap_joins;
+    c
+}
+
+/// The best variant: the highest same-work speedup at 8 ICUs with balancing.
+fn best_variant(v: &[MachineVariant]) -> Option<&MachineVariant> {
+    v.iter()
+        .max_by(|a, b| a.speedup8().total_cmp(&b.speedup8()))
+}
+
 /// Everything `paper` measured.
 pub struct PaperResults {
     pub base: MachineConfig,
@@ -49,6 +135,10 @@ pub struct PaperResults {
     pub work_item: WorkItemRows,
     pub speedup: Vec<SpeedupRow>,
     pub what_if: Vec<WhatIf>,
+    /// Issue 14's machine variants on scene2 (speedup), the best one's balancing on
+    /// stress-skewed (efficiency at the paper's ratio).
+    pub variants: Vec<MachineVariant>,
+    pub best_skewed: Vec<Point>,
 }
 
 /// Patch-buffer depth of the what-if variants that never fill it (no record ever waits for
@@ -151,11 +241,23 @@ pub fn paper(dir: &Path) -> Result<PaperResults> {
     let work_item = super::work_item(&w2, WORK_ITEM_CLUSTERS, PAPER_RATIO, &WORK_ITEMS)?;
     let speedup = super::speedup(&w2, &SPEEDUP_CLUSTERS, PAPER_RATIO)?;
     let what_if = what_if(&w2)?;
+    let variants = machine_variants(&w2, &speedup)?;
+    let best = best_variant(&variants).expect("four variants");
+    let best_base = with_variant(&base, best.job_source, best.overlap_joins);
+    let best_skewed = super::efficiency(
+        &Workload {
+            base: &best_base,
+            ..wk
+        },
+        &EFFICIENCY_CLUSTERS,
+        &[PAPER_RATIO],
+    )?;
     let outs: Vec<Outputs> = vec![
         efficiency_outputs(&w2, &scene2)?,
         efficiency_outputs(&wk, &skewed)?,
         work_item_outputs(&w2, &work_item)?,
         speedup_outputs(&w2, &speedup)?,
+        speedup_outputs_of(&w2, &best.rows, Some((&best.slug(), &best.name())))?,
     ];
     for o in &outs {
         crate::output::out!("{}", o.summary);
@@ -168,10 +270,16 @@ pub fn paper(dir: &Path) -> Result<PaperResults> {
         work_item,
         speedup,
         what_if,
+        variants,
+        best_skewed,
     };
     write_atomic(
         &dir.join("whatif-scene2.csv"),
         what_if_csv(&r.what_if).as_bytes(),
+    )?;
+    write_atomic(
+        &dir.join("variants-scene2.csv"),
+        variants_csv(&r.variants).as_bytes(),
     )?;
     write_atomic(&dir.join("report.md"), report(&r).as_bytes())?;
     Ok(r)
@@ -195,6 +303,150 @@ pub fn what_if_csv(rows: &[WhatIf]) -> String {
             );
         }
     }
+    s
+}
+
+/// The machine variants' rows as CSV: the variant, then the speedup experiment's fields.
+pub fn variants_csv(variants: &[MachineVariant]) -> String {
+    let mut s = String::new();
+    for (i, v) in variants.iter().enumerate() {
+        for (k, line) in super::speedup_csv(&v.rows).lines().enumerate() {
+            if k == 0 {
+                if i == 0 {
+                    let _ = writeln!(s, "job_source,overlap_joins,{line}");
+                }
+            } else {
+                let _ = writeln!(s, "{},{},{line}", v.job_source.name(), v.overlap_joins);
+            }
+        }
+    }
+    s
+}
+
+/// The machine variants' section of the report (markdown).
+fn variants_section(r: &PaperResults) -> String {
+    let mut s = String::new();
+    let Some(best) = best_variant(&r.variants) else {
+        return s;
+    };
+    let _ = writeln!(
+        s,
+        "## Machine variants: where jobs are made, overlapped joins (issue 14)\n\n\
+         `[machine] job_source`: `ctu` is the machine above — a CTU issues one job per cycle per\n\
+         arrived patch against its remaining rays; `bundle` — the paper's queueing network (Figs\n\
+         12.4–12.5) — the CTU hands its ray buffer one descriptor per arrived patch (the patch and\n\
+         the sector's remaining rays, from its ray pool), the ray buffer expands descriptors into\n\
+         jobs at the ICU's input, one per cycle, and balancing splits a work-item of up to {} jobs\n\
+         off the back of a waiting descriptor and sends it over the inter-cluster link (2 words of\n\
+         descriptor + 1 word per ray id; results still go home to the owning CTU).\n\
+         `overlap_joins = true`: a CTU traverses and requests the next subshell's patches while\n\
+         the current subshell's jobs drain (one subshell ahead); a ray still retires only when its\n\
+         next unprocessed cell (as of the end of the subshell that joins) starts beyond its best\n\
+         hit, and a ray its hit so far already retires is not walked again. Jobs made for the\n\
+         next subshell before the join still name the rays that join retires: they are computed\n\
+         and change nothing (the jobs column counts them).\n\n\
+         Scene2, ratio {PAPER_RATIO} ([CSV](variants-scene2.csv)); speedup and efficiency on the same\n\
+         work: T(1) is one ICU of the same variant fed by the same P × K CTUs and sectors;\n\
+         efficiency = speedup / P (ideal 1); the bound is T(1) over the resource bound of the\n\
+         P-ICU run (`ctu_issue` counts descriptors for `bundle`).\n\n\
+         | job_source | overlap_joins | balancing | P | cycles | jobs | speedup (same work) | efficiency | ideal | bound (same work) | binds |\n\
+         | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        r.base.balance.work_item_jobs
+    );
+    for v in &r.variants {
+        for on in [false, true] {
+            for &p in &SPEEDUP_CLUSTERS {
+                if let Some(x) = v.at(p, on) {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {} | {p} | {} | {} | {:.2} | {} | {p} | {:.2} | {} |",
+                        v.job_source.name(),
+                        v.overlap_joins,
+                        if on { "on" } else { "off" },
+                        x.point.cycles,
+                        x.point.jobs,
+                        x.speedup_same_work,
+                        pc(x.speedup_same_work / p as f64),
+                        x.bound_speedup_same_work,
+                        x.point.bound.binding().name()
+                    );
+                }
+            }
+        }
+    }
+    let today = r.variants.first();
+    let _ = writeln!(
+        s,
+        "\n![speedup, scene2, today's machine](speedup-scene2.svg) ![speedup, scene2, {}](speedup-scene2-{}.svg)\n\n\
+         Fig 12.15 for today's machine (left) and the best variant, *{}* (right;\n\
+         [CSV](speedup-scene2-{}.csv)).\n",
+        best.name(),
+        best.slug(),
+        best.name(),
+        best.slug()
+    );
+    if let Some(on) = best.at(WORK_ITEM_CLUSTERS, true) {
+        let p = &on.point;
+        let b = p.bound;
+        let _ = writeln!(
+            s,
+            "**The best variant at 8 ICUs** (balancing on): same-work speedup **{:.2}** = {} of\n\
+             ideal (aim {}: {:.1}), against {:.2} for today's machine; {} cycles against a bound of\n\
+             {} (`{}`: icu {}, memory {}, ctu_dda {}, ctu_issue {}), {} of the bound; {} jobs\n\
+             against {} on today's machine. Where its CTUs' cycles go:\n\n{}",
+            on.speedup_same_work,
+            pc(on.speedup_same_work / 8.0),
+            pc(AIM),
+            AIM * 8.0,
+            today.map_or(0.0, MachineVariant::speedup8),
+            p.cycles,
+            b.cycles(),
+            b.binding().name(),
+            b.icu,
+            b.memory,
+            b.ctu_dda,
+            b.ctu_issue,
+            pc(p.of_bound()),
+            p.jobs,
+            today
+                .and_then(|t| t.at(WORK_ITEM_CLUSTERS, true))
+                .map_or(0, |t| t.point.jobs),
+            ctu_state_table(p)
+        );
+        let _ = writeln!(
+            s,
+            "Its ICUs are idle {} of their cycles. The busiest CTU's critical path is its own\n\
+             traversal — one patch id scanned per cycle, one DDA step per {} cycles — and its\n\
+             joins: the {} ICU-cycles per ICU the bound allows leave it no slack.\n",
+            pc(p.icu_idle_fraction()),
+            r.base.machine.dda_cycles_per_step,
+            b.icu
+        );
+    }
+    // Balancing's gain on the best variant.
+    let gain_at = |rows: &[SpeedupRow], p: u32| -> Option<f64> {
+        Some(speed_gain(
+            &speedup_row(rows, p, false)?.point,
+            &speedup_row(rows, p, true)?.point,
+        ))
+    };
+    let gains2: Vec<String> = EFFICIENCY_CLUSTERS
+        .iter()
+        .filter_map(|&p| gain_at(&best.rows, p).map(|g| format!("{} (P = {p})", pct(g))))
+        .collect();
+    let _ = writeln!(
+        s,
+        "**Balancing's gain with the best variant** (cycles static over balanced, minus 1; the\n\
+         paper: about {}): scene2, ratio {PAPER_RATIO}: {}; stress-skewed, ratio {PAPER_RATIO}: {}.\n",
+        pct(PAPER_GAIN),
+        gains2.join(", "),
+        EFFICIENCY_CLUSTERS
+            .iter()
+            .filter_map(|&p| pair(&r.best_skewed, PAPER_RATIO, p)
+                .map(|(a, b)| format!("{} (P = {p})", pct(speed_gain(a, b)))))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     s
 }
 
@@ -315,6 +567,46 @@ fn where_cycles_go(p: &Point) -> String {
         pc(frac(p.jobs_moved, p.jobs)),
         p.retries
     );
+    s
+}
+
+/// The CTUs' cycles by traversal state (markdown table), summed over CTUs.
+fn ctu_state_table(p: &Point) -> String {
+    let c = &p.ctu_states;
+    let total = c.total();
+    let mut s =
+        String::from("| CTU state | share of CTU-cycles | what it is |\n| --- | --- | --- |\n");
+    for (name, v, what) in [
+        (
+            "SCAN + REQUEST",
+            c.scan + c.request,
+            "looking at a cell's patch ids, sending requests (REQUEST: the request queue full)",
+        ),
+        ("STEP", c.step, "a DDA step"),
+        (
+            "SHELL_START + IDLE",
+            c.shell_start + c.idle,
+            "starting a shell",
+        ),
+        (
+            "JOIN, waiting for patches",
+            p.join_wait_patches,
+            "a requested patch record not yet arrived",
+        ),
+        (
+            "JOIN, waiting for results",
+            p.join_wait_results,
+            "every patch in, jobs still being issued or computed",
+        ),
+        (
+            "JOIN, joining",
+            c.join - p.join_wait_patches - p.join_wait_results,
+            "the cycle rays retire",
+        ),
+        ("DONE", c.done, "the sector is finished, the others are not"),
+    ] {
+        let _ = writeln!(s, "| {name} | {} | {what} |", pc(frac(v, total)));
+    }
     s
 }
 
@@ -609,8 +901,9 @@ pub fn report(r: &PaperResults) -> String {
             s,
             "- **Joins**: a sector's next (sub)shell starts only when every job of the current one\n\
              has come back (C_Join and R_Join), so each CTU alternates between issuing and waiting\n\
-             (the CTUs' idle share above also counts CTUs that have finished — the machine has no\n\
-             per-state counter to split the two) and the ICUs see the bursts.\n"
+             and the ICUs see the bursts. The CTUs' cycles by traversal state (summed over the {} CTUs):\n\n{}",
+            p.clusters * p.ctus_per_cluster,
+            ctu_state_table(p)
         );
     }
 
@@ -662,6 +955,8 @@ pub fn report(r: &PaperResults) -> String {
             pc(best.on.icu_idle_fraction())
         );
     }
+
+    s.push_str(&variants_section(r));
 
     // Against the paper.
     let mut reached: Vec<String> = Vec::new();

@@ -5,7 +5,7 @@
 
 use shellsim::machine::run::{run, RunOutput, RunSpec};
 use shellsim::scene::Scene;
-use shellsim_hw::config::{ArbiterPolicy, MachineConfig};
+use shellsim_hw::config::{ArbiterPolicy, JobSource, MachineConfig};
 use shellsim_hw::machine::TickOrder;
 use std::path::{Path, PathBuf};
 
@@ -71,6 +71,9 @@ pub struct Variant {
     pub jump: bool,
     /// Dynamic balancing; `None` keeps the configuration file's setting.
     pub balance: Option<bool>,
+    /// Where jobs are made, and overlapped joins (issue 14's machine variants).
+    pub job_source: JobSource,
+    pub overlap_joins: bool,
 }
 
 impl Variant {
@@ -82,7 +85,18 @@ impl Variant {
         small_buffers: false,
         jump: true,
         balance: None,
+        job_source: JobSource::Ctu,
+        overlap_joins: false,
     };
+
+    /// The same cell with jobs made at `source`, joins overlapped or not.
+    pub const fn with(self, job_source: JobSource, overlap_joins: bool) -> Variant {
+        Variant {
+            job_source,
+            overlap_joins,
+            ..self
+        }
+    }
 
     /// The configuration this variant names.
     pub fn config(&self) -> MachineConfig {
@@ -94,19 +108,23 @@ impl Variant {
         if let Some(on) = self.balance {
             c.balance.enabled = on;
         }
+        c.machine.job_source = self.job_source;
+        c.machine.overlap_joins = self.overlap_joins;
         c
     }
 
     /// The command that reproduces a failure of this variant.
     pub fn repro(&self, file: &str) -> String {
         format!(
-            "reproduce: shellsim run --scene scenes/{file} --ratio 1 --hw hw/configs/{}.toml with clusters={} ctus_per_cluster={} arbiter={:?} cycle_jump={} balance={:?}",
+            "reproduce: shellsim run --scene scenes/{file} --ratio 1 --hw hw/configs/{}.toml with clusters={} ctus_per_cluster={} arbiter={:?} cycle_jump={} balance={:?} job_source={} overlap_joins={}",
             if self.small_buffers { "small" } else { "paper" },
             self.clusters,
             self.ctus,
             self.arbiter,
             self.jump,
-            self.balance
+            self.balance,
+            self.job_source.name(),
+            self.overlap_joins
         )
     }
 }
@@ -143,11 +161,35 @@ pub fn check_variant(file: &str, v: &Variant) -> RunOutput {
         "{repro}"
     );
     assert_eq!(s.memory.grants, s.patch_loads, "{repro}");
+    // Moved = given; every moved job's result came home.
+    let given: u64 = s.clusters.iter().map(|c| c.ray_buffer.jobs_given).sum();
+    let remote: u64 = s.clusters.iter().map(|c| c.icu.remote_results_out).sum();
+    assert_eq!(s.balancer.jobs_moved, given, "{repro}");
+    assert_eq!(s.balancer.results_returned, remote, "{repro}");
+    if v.job_source == JobSource::Bundle {
+        // Every job came out of a descriptor, once: the ray buffers expanded all of them.
+        let expanded: u64 = s.clusters.iter().map(|c| c.ray_buffer.jobs_in).sum();
+        let descs: u64 = s
+            .clusters
+            .iter()
+            .flat_map(|c| &c.ctus)
+            .map(|c| c.descriptors)
+            .sum();
+        let taken: u64 = s.clusters.iter().map(|c| c.ray_buffer.descriptors_in).sum();
+        assert_eq!(expanded, s.jobs, "{repro}");
+        assert_eq!(taken, descs + s.balancer.work_items, "{repro}");
+    }
     assert_eq!(s.memory_requests, s.patch_loads, "{repro}");
     for c in s.clusters.iter().flat_map(|c| &c.ctus) {
         assert_eq!(
             c.busy_cycles + c.stalled_cycles + c.idle_cycles,
             s.cycles,
+            "{repro}"
+        );
+        // The per-state counters partition the cycles too; the join waits are JOIN cycles.
+        assert_eq!(c.state_cycles.total(), s.cycles, "{repro}");
+        assert!(
+            c.join_wait_patches + c.join_wait_results <= c.state_cycles.join,
             "{repro}"
         );
     }

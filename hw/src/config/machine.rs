@@ -16,6 +16,37 @@ pub enum ArbiterPolicy {
     FixedPriority,
 }
 
+/// Where a sector's (ray, patch) jobs are made.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum JobSource {
+    /// The CTU issues one job per cycle for each arrived patch against every remaining ray.
+    #[default]
+    Ctu,
+    /// The CTU hands its ray buffer one descriptor per arrived patch (the patch and the
+    /// sector's remaining rays); the ray buffer expands it into jobs at the ICU's input, one
+    /// per cycle, and balancing moves work-items split off waiting descriptors.
+    Bundle,
+}
+
+impl JobSource {
+    /// The name in configuration files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            JobSource::Ctu => "ctu",
+            JobSource::Bundle => "bundle",
+        }
+    }
+
+    fn is_ctu(&self) -> bool {
+        *self == JobSource::Ctu
+    }
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
 /// A length in scene units, or `"auto"`: derived from the scene by the host's stated rule
 /// (see the host's `config::resolve`). The machine is only ever built from a resolved
 /// configuration (every length a value); serialized, a value is a plain number.
@@ -116,6 +147,16 @@ pub struct MachineTable {
     pub cycle_jump: bool,
     /// Stop with a report when nothing progresses for this many cycles.
     pub watchdog_cycles: u64,
+    /// Where jobs are made (`ctu` when the key is absent; written only when not `ctu`, so
+    /// every configuration written before the key existed reads and writes as it did).
+    #[serde(default, skip_serializing_if = "JobSource::is_ctu")]
+    pub job_source: JobSource,
+    /// A CTU traverses and requests the next subshell's patches while the current
+    /// subshell's jobs drain (at most one subshell ahead); rays still retire by the exact
+    /// rule, against their position at the end of the subshell that joins. `false` when the
+    /// key is absent (written only when `true`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub overlap_joins: bool,
 }
 
 /// Which busy cluster the balancer asks for work.

@@ -6,7 +6,7 @@ pub mod datapath;
 pub mod machine;
 
 pub use datapath::{DatapathConfig, Formats, HardwareCost};
-pub use machine::{ArbiterPolicy, BalanceTable, Length, MachineTable, VictimPolicy};
+pub use machine::{ArbiterPolicy, BalanceTable, JobSource, Length, MachineTable, VictimPolicy};
 
 use serde::{Deserialize, Serialize};
 

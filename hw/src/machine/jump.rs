@@ -13,8 +13,8 @@ impl Machine<'_> {
                 || (0..self.clusters.len()).any(|c| {
                     self.balancer.would_request(
                         c,
-                        self.clusters[c].ray_buffer.queue.len(),
-                        self.links.net_in[c].is_empty(),
+                        self.clusters[c].ray_buffer.waiting(),
+                        self.links.net_in[c].is_empty() && self.links.net_desc[c].is_empty(),
                     )
                 }));
         if !links_empty

@@ -9,7 +9,7 @@
 use super::probe::Sink;
 use crate::config::MachineTable;
 use crate::link::{Link, UnitId};
-use crate::msg::{Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};
+use crate::msg::{Descriptor, Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};
 
 /// Where a link family appears in the waveform (the probe calls it at that point, so the
 /// signal order of every waveform stays as it is).
@@ -19,6 +19,10 @@ pub enum Section {
     Arbiter,
     /// In cluster c's balance scope (balancing on only).
     Balance(usize),
+    /// After cluster c's ray buffer (`job_source = "bundle"` only).
+    BundleCluster(usize),
+    /// After CTU (c, j)'s links (`job_source = "bundle"` only).
+    BundleCtu(usize, usize),
     /// After CTU (c, j)'s signals.
     Ctu(usize, usize),
     /// Not shown.
@@ -110,8 +114,13 @@ macro_rules! links {
                             let i = self.index(shape, c, 0);
                             probe_link(p, &self.scopes.$name[i], &self.$name[i]);
                         }
-                        (Section::Ctu(..), Section::Ctu(c, j)) => {
+                        (Section::Ctu(..), Section::Ctu(c, j))
+                        | (Section::BundleCtu(..), Section::BundleCtu(c, j)) => {
                             let i = self.index(shape, c, j);
+                            probe_link(p, &self.scopes.$name[i], &self.$name[i]);
+                        }
+                        (Section::BundleCluster(_), Section::BundleCluster(c)) => {
+                            let i = self.index(shape, c, 0);
                             probe_link(p, &self.scopes.$name[i], &self.$name[i]);
                         }
                         _ => {}
@@ -177,6 +186,18 @@ links! {
         |_, _| UnitId::Balancer => |c, j| UnitId::Ctu(c, j),
         probe Section::Hidden,
         scope |c, j| format!("machine.cluster_{c}.ctu_{j}.remote_in");
+    /// CTU (c, j) → ray buffer c: descriptors (`job_source = "bundle"`).
+    descs: Descriptor, PerCtu,
+        capacity |_| 2,
+        |c, j| UnitId::Ctu(c, j) => |c, _| UnitId::RayBuffer(c),
+        probe Section::BundleCtu(0, 0),
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.descriptors");
+    /// Balancer → ray buffer c: split descriptors over the inter-cluster link (bundle).
+    net_desc: Descriptor, PerCluster,
+        capacity |_| 2,
+        |_, _| UnitId::Balancer => |c, _| UnitId::RayBuffer(c),
+        probe Section::BundleCluster(0),
+        scope |c, _| format!("machine.cluster_{c}.ray_buffer.net_descriptors");
 }
 
 impl Links {

@@ -20,7 +20,7 @@ mod watchdog;
 pub use links::Links;
 pub use watchdog::Deadlock;
 
-use crate::config::MachineConfig;
+use crate::config::{JobSource, MachineConfig};
 use crate::datapath::model::FixedScene;
 use crate::datapath::record::{RayRecord, RecordSizes};
 use crate::datapath::{Exceptions, FixedHit};
@@ -33,6 +33,7 @@ use crate::units::icu::Icu;
 use crate::units::memory::Memory;
 use crate::units::patch_buffer::PatchBuffer;
 use crate::units::ray_buffer::RayBuffer;
+use crate::units::ray_pool::RayList;
 
 /// The order units are ticked in within a cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -54,6 +55,8 @@ pub struct Machine<'a> {
     pub balancer: Balancer,
     /// Every link between units.
     pub links: Links,
+    /// Every CTU's ray pool, cluster-major (bundle only; empty lists otherwise).
+    pool: Vec<RayList>,
     /// The balancer's view of each ray buffer's registered occupancy (reused every cycle).
     occupancy: Vec<usize>,
     pub cycle: u64,
@@ -93,6 +96,18 @@ impl<'a> Machine<'a> {
         let shell_raw = cfg
             .shell_raw()
             .unwrap_or_else(|e| panic!("an unvalidated machine configuration: {e}"));
+        let bundle = cfg.machine.job_source == JobSource::Bundle;
+        let pool: Vec<RayList> = sectors
+            .iter()
+            .flatten()
+            .map(|r| {
+                if bundle {
+                    RayList::new(r)
+                } else {
+                    RayList::default()
+                }
+            })
+            .collect();
         let clusters: Vec<Cluster> = sectors
             .iter()
             .enumerate()
@@ -111,6 +126,8 @@ impl<'a> Machine<'a> {
                             shell_raw,
                             t_frac: f.t.frac_bits,
                             t_max: f.t.max_raw() as i64,
+                            bundle,
+                            overlap: cfg.machine.overlap_joins,
                         };
                         Ctu::new(p, r, rays, &scene.cells, scene.patches.len())
                     })
@@ -118,7 +135,11 @@ impl<'a> Machine<'a> {
                 Cluster::new(
                     ctus,
                     Icu::new(cfg.divider_stages()),
-                    RayBuffer::new(cfg.machine.ray_buffer_capacity, k + 1),
+                    if bundle {
+                        RayBuffer::bundle(cfg.machine.ray_buffer_capacity)
+                    } else {
+                        RayBuffer::new(cfg.machine.ray_buffer_capacity, k + 1)
+                    },
                     PatchBuffer::new(c, cfg.machine.patch_buffer_capacity),
                 )
             })
@@ -141,6 +162,7 @@ impl<'a> Machine<'a> {
             balancer: Balancer::new(cfg.balance, nc),
             links: Links::new(&cfg.machine),
             occupancy: vec![0; nc],
+            pool,
             memory: Memory::new(cfg.machine.arbiter, cfg.machine.memory_latency, words, nc),
             clusters,
             cfg,
@@ -181,7 +203,16 @@ impl<'a> Machine<'a> {
             + 4 * slots(3, small)
             + (patches as u64).div_ceil(8)
             + 4096;
-        c * per_cluster + c * k * per_ctu + rays as u64 * 64
+        // Bundle: the descriptor stores and the ray pools' two lists of (slot, ray).
+        let bundle = if m.job_source == JobSource::Bundle {
+            c * slots(
+                m.ray_buffer_capacity as u64,
+                size_of::<crate::msg::Descriptor>(),
+            ) + rays as u64 * 16
+        } else {
+            0
+        };
+        c * per_cluster + c * k * per_ctu + rays as u64 * 64 + bundle
     }
 
     /// True when every sector is finished and nothing is in flight.

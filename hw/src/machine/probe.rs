@@ -117,6 +117,7 @@ impl Machine<'_> {
         let now = self.cycle;
         let t_frac = self.scene.formats.t.frac_bits;
         let t_bits = self.scene.formats.t.bits();
+        let bundle = self.cfg.machine.job_source == crate::config::JobSource::Bundle;
         p.bits(
             &sc.memory,
             "port_busy",
@@ -166,6 +167,30 @@ impl Machine<'_> {
             }
             probe_link(p, &cs.patch_buffer, &cl.patch_buffer.store);
             probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
+            if bundle {
+                let rb = &cl.ray_buffer;
+                let (patch, left) = rb.expanding().unwrap_or((0, 0));
+                p.bits(&cs.ray_buffer, "descriptors", 16, rb.descriptors() as u64);
+                p.bits(&cs.ray_buffer, "jobs_waiting", 32, rb.waiting() as u64);
+                p.bits(&cs.ray_buffer, "expanding_patch", 24, patch as u64);
+                p.bits(&cs.ray_buffer, "expanding_left", 32, left as u64);
+                p.bits(
+                    &cs.ray_buffer,
+                    "descriptors_in",
+                    32,
+                    rb.stats.descriptors_in,
+                );
+                p.bits(&cs.ray_buffer, "splits", 32, rb.stats.work_items_given);
+                if self.cfg.balance.enabled {
+                    p.bits(
+                        &cs.ray_buffer,
+                        "descriptors_inbound",
+                        16,
+                        self.balancer.inbound_descriptors(c) as u64,
+                    );
+                }
+                self.links.probe(p, Section::BundleCluster(c));
+            }
             for (j, ctu) in cl.ctus.iter().enumerate() {
                 let s = &cs.ctus[j];
                 p.text(s, "state", CtuState::NAMES, ctu.state.index());
@@ -175,6 +200,10 @@ impl Machine<'_> {
                 p.bits(s, "pending_loads", 16, ctu.pending_loads() as u64);
                 p.bits(s, "jobs_issued", 32, ctu.stats.jobs_issued);
                 self.links.probe(p, Section::Ctu(c, j));
+                if bundle {
+                    p.bits(s, "descriptors", 32, ctu.stats.descriptors);
+                    self.links.probe(p, Section::BundleCtu(c, j));
+                }
             }
             p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
             for n in 0..cl.icu.depth() {

@@ -4,10 +4,12 @@
 
 use super::links::Links;
 use super::{Machine, TickOrder};
+use crate::config::JobSource;
 use crate::link::UnitId;
 use crate::units::balancer::BalancerPorts;
 use crate::units::ctu::CtuPorts;
 use crate::units::icu::IcuPorts;
+use crate::units::ray_buffer::BundlePorts;
 
 impl Machine<'_> {
     /// One clock cycle: tick every unit in `order`, then commit every link.
@@ -63,13 +65,14 @@ impl Machine<'_> {
             UnitId::Balancer => {
                 // Registered ray-buffer occupancies (committed state, same in any order).
                 for (o, cl) in self.occupancy.iter_mut().zip(&self.clusters) {
-                    *o = cl.ray_buffer.queue.len();
+                    *o = cl.ray_buffer.waiting();
                 }
                 let mut io = BalancerPorts {
                     occupancy: &self.occupancy,
                     orders: &mut l.orders,
                     items: &mut l.items,
                     to_ray_buffers: &mut l.net_in,
+                    desc_to_ray_buffers: &mut l.net_desc,
                     from_icus: &mut l.remote_out,
                     to_ctus: &mut l.remote_in,
                     ctus_per_cluster: k,
@@ -88,8 +91,21 @@ impl Machine<'_> {
                     jobs: &mut l.jobs[i],
                     results: &mut l.results[i],
                     remote_results: &mut l.remote_in[i],
+                    descs: &mut l.descs[i],
+                    pool: &mut self.pool[i],
                 };
                 self.clusters[c].ctus[j].tick(now, &mut io, &self.scene.cells);
+            }
+            UnitId::RayBuffer(c) if self.cfg.machine.job_source == JobSource::Bundle => {
+                let mut io = BundlePorts {
+                    inputs: Links::of_cluster(&mut l.descs, k, c),
+                    from_network: &mut l.net_desc[c],
+                    orders: &mut l.orders[c],
+                    out: &mut l.items[c],
+                    pool: &self.pool,
+                    ctus_per_cluster: k,
+                };
+                self.clusters[c].ray_buffer.tick_bundle(c as u16, &mut io);
             }
             UnitId::RayBuffer(c) => {
                 self.clusters[c].ray_buffer.tick(

@@ -11,10 +11,15 @@
 //! (latency plus one word-time) to the owner's CTU, which keeps the nearest hit and joins
 //! its shell as usual. A request that finds no work is retried after `sampling_interval`.
 //! Every job is computed exactly once: a split removes jobs from the victim's queue.
+//!
+//! With `job_source = "bundle"` a work-item is a descriptor cut off the victim's last
+//! waiting descriptor: it arrives whole `link_latency + ⌈words / link_words_per_cycle⌉`
+//! cycles after the split, its words the descriptor's and one per ray id
+//! ([`Descriptor::link_words`]), and enters the thief's ray buffer as a descriptor.
 
 use crate::config::{BalanceTable, VictimPolicy};
 use crate::link::{Link, UnitId};
-use crate::msg::{Job, JobResult, RemoteResult, SplitOrder, WorkItem, JOB_WORDS};
+use crate::msg::{Descriptor, Job, JobResult, RemoteResult, SplitOrder, WorkItem, JOB_WORDS};
 use std::collections::VecDeque;
 
 /// The balancer's end of its links (rule 7).
@@ -51,6 +56,8 @@ pub struct Balancer {
     next_victim: usize,
     /// Jobs on their way to each cluster: (arrival cycle, job).
     inbound: Vec<VecDeque<(u64, Job)>>,
+    /// Descriptors on their way to each cluster (bundle).
+    inbound_desc: Vec<VecDeque<(u64, Descriptor)>>,
     /// Results on their way home to each cluster.
     returns: Vec<VecDeque<(u64, RemoteResult)>>,
     pub stats: BalancerStats,
@@ -63,6 +70,8 @@ pub struct BalancerPorts<'a> {
     pub orders: &'a mut [Link<SplitOrder>],
     pub items: &'a mut [Link<WorkItem>],
     pub to_ray_buffers: &'a mut [Link<Job>],
+    /// Split descriptors to each ray buffer (bundle).
+    pub desc_to_ray_buffers: &'a mut [Link<Descriptor>],
     pub from_icus: &'a mut [Link<RemoteResult>],
     /// Per CTU, cluster-major: CTU j of cluster c is `c * ctus_per_cluster + j`.
     pub to_ctus: &'a mut [Link<JobResult>],
@@ -77,6 +86,7 @@ impl Balancer {
             requests: vec![None; clusters],
             next_victim: 0,
             inbound: vec![VecDeque::new(); clusters],
+            inbound_desc: vec![VecDeque::new(); clusters],
             returns: vec![VecDeque::new(); clusters],
             stats: BalancerStats::default(),
         }
@@ -85,13 +95,18 @@ impl Balancer {
     /// True when nothing is on the link and no split order is out.
     pub fn idle(&self) -> bool {
         self.inbound.iter().all(VecDeque::is_empty)
+            && self.inbound_desc.iter().all(VecDeque::is_empty)
             && self.returns.iter().all(VecDeque::is_empty)
             && self.requests.iter().all(|r| !r.is_some_and(|r| r.ordered))
     }
 
     /// True when cluster `c` would raise a new request this cycle.
     pub fn would_request(&self, c: usize, occupancy: usize, net_in_empty: bool) -> bool {
-        self.requests[c].is_none() && occupancy == 0 && self.inbound[c].is_empty() && net_in_empty
+        self.requests[c].is_none()
+            && occupancy == 0
+            && self.inbound[c].is_empty()
+            && self.inbound_desc[c].is_empty()
+            && net_in_empty
     }
 
     /// True when cluster `c` has asked for work and not yet got it.
@@ -102,6 +117,11 @@ impl Balancer {
     /// Jobs on their way to cluster `c`.
     pub fn inbound(&self, c: usize) -> usize {
         self.inbound[c].len()
+    }
+
+    /// Descriptors on their way to cluster `c` (bundle).
+    pub fn inbound_descriptors(&self, c: usize) -> usize {
+        self.inbound_desc[c].len()
     }
 
     /// The earliest cycle after `now` at which the balancer acts on its own.
@@ -127,6 +147,11 @@ impl Balancer {
                 take(a);
             }
         }
+        for q in &self.inbound_desc {
+            if let Some(&(a, _)) = q.front() {
+                take(a);
+            }
+        }
         t
     }
 
@@ -144,6 +169,10 @@ impl Balancer {
                 .returns
                 .iter()
                 .any(|q| q.front().is_some_and(|&(a, _)| a <= now))
+            || self
+                .inbound_desc
+                .iter()
+                .any(|q| q.front().is_some_and(|&(a, _)| a <= now))
     }
 
     fn link_cycles(&self, words: u64) -> u64 {
@@ -158,7 +187,15 @@ impl Balancer {
             if io.items[c].peek().is_some() {
                 let item = io.items[c].pop(ME);
                 let thief = item.to as usize;
-                if item.jobs.is_empty() {
+                if let Some(d) = item.desc {
+                    let words = d.link_words();
+                    let at = now + self.link_cycles(words);
+                    self.inbound_desc[thief].push_back((at, d));
+                    self.stats.work_items += 1;
+                    self.stats.jobs_moved += d.jobs() as u64;
+                    self.stats.link_words += words;
+                    self.requests[thief] = None;
+                } else if item.jobs.is_empty() {
                     self.requests[thief] = Some(Request {
                         next_try: now + self.cfg.sampling_interval as u64,
                         ordered: false,
@@ -185,6 +222,14 @@ impl Balancer {
                 }
             }
         }
+        for c in 0..n {
+            if let Some(&(at, d)) = self.inbound_desc[c].front() {
+                if at <= now && io.desc_to_ray_buffers[c].can_push() {
+                    io.desc_to_ray_buffers[c].push(ME, d);
+                    self.inbound_desc[c].pop_front();
+                }
+            }
+        }
         // Results of moved jobs go home.
         for c in 0..n {
             if io.from_icus[c].peek().is_some() {
@@ -206,7 +251,8 @@ impl Balancer {
         }
         // New requests from clusters whose ray buffer ran empty with nothing on its way.
         for c in 0..n {
-            if self.would_request(c, io.occupancy[c], io.to_ray_buffers[c].is_empty()) {
+            let net_empty = io.to_ray_buffers[c].is_empty() && io.desc_to_ray_buffers[c].is_empty();
+            if self.would_request(c, io.occupancy[c], net_empty) {
                 self.requests[c] = Some(Request {
                     next_try: now,
                     ordered: false,
@@ -283,6 +329,7 @@ mod tests {
         orders: Vec<Link<SplitOrder>>,
         items: Vec<Link<WorkItem>>,
         net_in: Vec<Link<Job>>,
+        net_desc: Vec<Link<Descriptor>>,
         remote_out: Vec<Link<RemoteResult>>,
         remote_in: Vec<Link<JobResult>>,
     }
@@ -293,6 +340,7 @@ mod tests {
                 orders: (0..n).map(|_| Link::new(1)).collect(),
                 items: (0..n).map(|_| Link::new(1)).collect(),
                 net_in: (0..n).map(|_| Link::new(2)).collect(),
+                net_desc: (0..n).map(|_| Link::new(2)).collect(),
                 remote_out: (0..n).map(|_| Link::new(2)).collect(),
                 remote_in: (0..n).map(|_| Link::new(2)).collect(),
             }
@@ -304,6 +352,7 @@ mod tests {
                 orders: &mut self.orders,
                 items: &mut self.items,
                 to_ray_buffers: &mut self.net_in,
+                desc_to_ray_buffers: &mut self.net_desc,
                 from_icus: &mut self.remote_out,
                 to_ctus: &mut self.remote_in,
                 ctus_per_cluster: 1,
@@ -316,6 +365,7 @@ mod tests {
             self.orders.iter_mut().for_each(Link::commit);
             self.items.iter_mut().for_each(Link::commit);
             self.net_in.iter_mut().for_each(Link::commit);
+            self.net_desc.iter_mut().for_each(Link::commit);
             self.remote_out.iter_mut().for_each(Link::commit);
             self.remote_in.iter_mut().for_each(Link::commit);
         }
@@ -367,6 +417,7 @@ mod tests {
                 from: 1,
                 to: 0,
                 jobs: vec![],
+                desc: None,
             },
         );
         net.commit();
@@ -408,6 +459,7 @@ mod tests {
                 from: 1,
                 to: 0,
                 jobs: vec![job(7), job(8)],
+                desc: None,
             },
         );
         net.commit();

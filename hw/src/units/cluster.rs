@@ -37,15 +37,13 @@ impl Cluster {
 
     /// True when the ICU and both buffers' stores are empty.
     pub fn is_empty(&self) -> bool {
-        self.icu.is_empty()
-            && self.ray_buffer.queue.is_empty()
-            && self.patch_buffer.store.is_empty()
+        self.icu.is_empty() && self.ray_buffer.is_empty() && self.patch_buffer.store.is_empty()
     }
 
     /// The clock edge of the units' own stores (the ray buffer's queue, the patch buffer's
     /// store); the links commit in `machine::links`.
     pub fn commit(&mut self) {
-        self.ray_buffer.queue.commit();
+        self.ray_buffer.commit();
         self.patch_buffer.commit();
     }
 }

@@ -27,7 +27,8 @@ use crate::datapath::model::STOP_SLACK_T_LSB;
 use crate::datapath::record::{CellTable, RayRecord};
 use crate::datapath::{compare, FixedHit};
 use crate::link::{Link, UnitId};
-use crate::msg::{Job, JobResult, MemRequest, PatchArrival};
+use crate::msg::{Descriptor, Job, JobResult, MemRequest, PatchArrival};
+use crate::units::ray_pool::RayList;
 use bitvec::prelude::*;
 
 /// The traversal FSM's states.
@@ -82,6 +83,17 @@ struct RaySlot {
     dda: Option<FixedDda>,
     best: Option<FixedHit>,
     retired: bool,
+    /// Overlapped joins: the position before the first step taken while traversing
+    /// subshell `snap_sub` (so the join of subshell `snap_sub − 1` sees where it ended).
+    snap: Option<FixedDda>,
+    snap_sub: u32,
+}
+
+/// Overlapped joins: a subshell whose traversal is over and whose jobs drain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Drain {
+    sub: u32,
+    phase: usize,
 }
 
 /// CTU counters (cycles partition into busy + stalled + idle).
@@ -96,6 +108,57 @@ pub struct CtuStats {
     pub results: u64,
     pub shells: u64,
     pub subshells: u64,
+    /// Cycles spent in each traversal state (they sum to all cycles).
+    pub state_cycles: StateCycles,
+    /// Of the JOIN cycles that did not join: waiting for a requested patch to arrive, and
+    /// (every patch in) waiting for jobs to be issued and their results to come back.
+    pub join_wait_patches: u64,
+    pub join_wait_results: u64,
+    /// Descriptors handed to the ray buffer (bundle only; their jobs are in `jobs_issued`).
+    pub descriptors: u64,
+}
+
+/// Cycles per traversal state, one field per [`CtuState`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct StateCycles {
+    pub idle: u64,
+    pub shell_start: u64,
+    pub scan: u64,
+    pub request: u64,
+    pub step: u64,
+    pub join: u64,
+    pub done: u64,
+}
+
+impl StateCycles {
+    /// Adds `n` cycles to `state`.
+    pub fn add(&mut self, state: CtuState, n: u64) {
+        *match state {
+            CtuState::Idle => &mut self.idle,
+            CtuState::ShellStart => &mut self.shell_start,
+            CtuState::Scan => &mut self.scan,
+            CtuState::Request => &mut self.request,
+            CtuState::Step => &mut self.step,
+            CtuState::Join => &mut self.join,
+            CtuState::Done => &mut self.done,
+        } += n;
+    }
+
+    /// Adds every state's cycles of `o`.
+    pub fn sum(&mut self, o: &StateCycles) {
+        self.idle += o.idle;
+        self.shell_start += o.shell_start;
+        self.scan += o.scan;
+        self.request += o.request;
+        self.step += o.step;
+        self.join += o.join;
+        self.done += o.done;
+    }
+
+    /// The sum over states.
+    pub fn total(&self) -> u64 {
+        self.idle + self.shell_start + self.scan + self.request + self.step + self.join + self.done
+    }
 }
 
 /// What a CTU needs that is fixed for the run.
@@ -110,6 +173,11 @@ pub struct CtuParams {
     pub shell_raw: i64,
     pub t_frac: u32,
     pub t_max: i64,
+    /// `job_source = "bundle"`: one descriptor per arrived patch instead of one job per
+    /// (ray, patch).
+    pub bundle: bool,
+    /// `overlap_joins`: traverse the next subshell while the current one drains.
+    pub overlap: bool,
 }
 
 /// The links a CTU drives or reads.
@@ -120,6 +188,10 @@ pub struct CtuPorts<'a> {
     pub results: &'a mut Link<JobResult>,
     /// Results of this CTU's jobs computed by other clusters (dynamic balancing).
     pub remote_results: &'a mut Link<JobResult>,
+    /// To the ray buffer: descriptors (bundle only).
+    pub descs: &'a mut Link<Descriptor>,
+    /// This CTU's ray pool (bundle only): written at joins, read by ray buffers.
+    pub pool: &'a mut RayList,
 }
 
 /// A cell traversal unit.
@@ -146,6 +218,17 @@ pub struct Ctu {
     /// The patch whose jobs are being issued and the next position in `remaining`.
     issuing: Option<(u32, usize)>,
     outstanding: u64,
+    /// The ray-pool list descriptors name (bundle only).
+    list: u8,
+    /// Overlapped joins: the subshell being traversed (its parity is its phase), the one
+    /// draining, pending loads and outstanding jobs per phase, each patch's phase, and the
+    /// ray whose step was under way when the traversal reached a subshell's end.
+    sub: u32,
+    draining: Option<Drain>,
+    pending_ph: [u32; 2],
+    outstanding_ph: [u64; 2],
+    phase_of: BitVec,
+    boundary_ray: Option<u32>,
     pub stats: CtuStats,
 }
 
@@ -165,6 +248,8 @@ impl Ctu {
                 dda: FixedDda::new(cells, &records[r as usize]),
                 best: None,
                 retired: false,
+                snap: None,
+                snap_sub: u32::MAX,
             })
             .collect();
         Ctu {
@@ -183,13 +268,27 @@ impl Ctu {
             pending_loads: 0,
             issuing: None,
             outstanding: 0,
+            list: 0,
+            sub: 0,
+            draining: None,
+            pending_ph: [0; 2],
+            outstanding_ph: [0; 2],
+            phase_of: if p.overlap {
+                bitvec![0; patches]
+            } else {
+                BitVec::new()
+            },
+            boundary_ray: None,
             stats: CtuStats::default(),
         }
     }
 
     /// True when the sector is finished.
     pub fn done(&self) -> bool {
-        self.state == CtuState::Done && self.issuing.is_none() && self.outstanding == 0
+        self.state == CtuState::Done
+            && self.issuing.is_none()
+            && self.outstanding == 0
+            && self.draining.is_none()
     }
 
     /// Each ray's nearest hit: (global ray id, hit).
@@ -225,6 +324,10 @@ impl Ctu {
     /// Accounts `n` cycles skipped by the machine's cycle jump: busy while a DDA step runs,
     /// idle otherwise (waiting at a join, or done).
     pub fn skip(&mut self, n: u64) {
+        self.stats.state_cycles.add(self.state, n);
+        if self.state == CtuState::Join {
+            self.count_join_wait(n);
+        }
         if self.state == CtuState::Step {
             self.stats.busy_cycles += n;
         } else {
@@ -232,10 +335,25 @@ impl Ctu {
         }
     }
 
+    /// Accounts `n` cycles at a join that cannot happen yet: waiting for patches while any
+    /// requested one is still on its way, else for jobs and their results.
+    fn count_join_wait(&mut self, n: u64) {
+        let pending = match self.draining {
+            Some(d) if self.p.overlap => self.pending_ph[d.phase],
+            _ => self.pending_loads,
+        };
+        if pending > 0 {
+            self.stats.join_wait_patches += n;
+        } else {
+            self.stats.join_wait_results += n;
+        }
+    }
+
     /// True when the CTU does nothing until its timer or an arrival: stepping on the timer,
     /// waiting at a join for patches still in memory, or done.
     pub fn quiet(&self, now: u64) -> bool {
         self.issuing.is_none()
+            && !self.draining.is_some_and(|d| self.drain_due(d))
             && match self.state {
                 CtuState::Step => self.timer > now,
                 CtuState::Join => self.outstanding == 0 && self.pending_loads > 0,
@@ -261,6 +379,7 @@ impl Ctu {
             self.skip(1);
             return;
         }
+        self.stats.state_cycles.add(self.state, 1);
         let me = UnitId::Ctu(self.p.cluster as usize, self.p.local as usize);
         let mut busy = false;
         let mut stalled = false;
@@ -274,6 +393,9 @@ impl Ctu {
                     compare(&mut slot.best, FixedHit { patch: r.patch, t });
                 }
                 self.outstanding -= 1;
+                if self.p.overlap {
+                    self.outstanding_ph[self.phase_of[r.patch as usize] as usize] -= 1;
+                }
                 self.stats.results += 1;
                 busy = true;
             }
@@ -294,6 +416,9 @@ impl Ctu {
                         },
                     );
                     self.outstanding += 1;
+                    if self.p.overlap {
+                        self.outstanding_ph[self.phase_of[patch as usize] as usize] += 1;
+                    }
                     self.stats.jobs_issued += 1;
                     self.issuing = (i + 1 < self.remaining.len()).then_some((patch, i + 1));
                     busy = true;
@@ -301,15 +426,62 @@ impl Ctu {
                     stalled = true;
                 }
             }
+            None if self.p.bundle && !self.remaining.is_empty() => {
+                // One descriptor per arrived patch: the patch against every remaining ray.
+                // With overlapped joins a patch of the next subshell waits in the patch
+                // buffer until the draining subshell joins, so that its descriptor names
+                // the rays that join leaves (none it retires).
+                let held = |a: &PatchArrival| {
+                    self.draining
+                        .is_some_and(|d| self.phase_of[a.patch as usize] as usize != d.phase)
+                };
+                if io.arrivals.peek().is_some_and(held) {
+                    stalled = true;
+                } else if io.arrivals.peek().is_some() {
+                    if io.descs.can_push() {
+                        let a = io.arrivals.pop(me);
+                        self.arrived(a.patch);
+                        let n = self.remaining.len() as u32;
+                        io.descs.push(
+                            me,
+                            Descriptor {
+                                patch: a.patch,
+                                ctu: self.p.local,
+                                owner: self.p.cluster,
+                                list: self.list,
+                                lo: 0,
+                                hi: n,
+                            },
+                        );
+                        self.outstanding += n as u64;
+                        if self.p.overlap {
+                            self.outstanding_ph[self.phase_of[a.patch as usize] as usize] +=
+                                n as u64;
+                        }
+                        self.stats.jobs_issued += n as u64;
+                        self.stats.descriptors += 1;
+                        busy = true;
+                    } else {
+                        stalled = true;
+                    }
+                }
+            }
             None => {
                 if io.arrivals.peek().is_some() {
                     let a = io.arrivals.pop(me);
-                    self.pending_loads -= 1;
+                    self.arrived(a.patch);
                     if !self.remaining.is_empty() {
                         self.issuing = Some((a.patch, 0));
                     }
                     busy = true;
                 }
+            }
+        }
+        // Overlapped joins: the draining subshell joins once its patches and jobs are in.
+        if let Some(d) = self.draining {
+            if self.drain_due(d) {
+                self.drain_join(d, io.pool);
+                busy = true;
             }
         }
         // Traversal FSM.
@@ -354,6 +526,11 @@ impl Ctu {
                         );
                         self.loaded.set(id as usize, true);
                         self.pending_loads += 1;
+                        if self.p.overlap {
+                            let ph = (self.sub & 1) as usize;
+                            self.phase_of.set(id as usize, ph == 1);
+                            self.pending_ph[ph] += 1;
+                        }
                         self.subshell_loads += 1;
                         self.stats.patch_requests += 1;
                         self.cell_pos += 1;
@@ -367,6 +544,7 @@ impl Ctu {
                     // Subshell full: join before stepping on (the cell is done).
                     self.shell_end = false;
                     self.start_step(now);
+                    self.boundary_ray = self.remaining.get(self.cursor).copied();
                     self.state = CtuState::Join;
                     busy = true;
                 } else {
@@ -380,10 +558,22 @@ impl Ctu {
                     self.after_step();
                 }
             }
+            CtuState::Join if self.p.overlap => {
+                // The traversal reached a subshell's end: it goes on at once unless the
+                // subshell before is still draining (at most one subshell ahead).
+                if self.draining.is_none() {
+                    self.start_drain();
+                    busy = true;
+                } else {
+                    self.count_join_wait(1);
+                }
+            }
             CtuState::Join => {
                 if self.pending_loads == 0 && self.issuing.is_none() && self.outstanding == 0 {
-                    self.join();
+                    self.join(io.pool);
                     busy = true;
+                } else {
+                    self.count_join_wait(1);
                 }
             }
             CtuState::Done => {}
@@ -403,7 +593,14 @@ impl Ctu {
         while self.cursor < self.remaining.len() {
             let slot = &self.slots[self.remaining[self.cursor] as usize];
             if let Some(d) = &slot.dda {
-                if !d.entry_at_or_beyond(self.shell_limit, self.p.t_frac) {
+                // Overlapped joins: a ray that its hit so far already retires (its next cell
+                // starts beyond it, and later results can only bring the hit nearer) is not
+                // walked again; it retires at the next join.
+                let retires = self.p.overlap
+                    && slot
+                        .best
+                        .is_some_and(|b| d.entry_beyond(b.t + STOP_SLACK_T_LSB, self.p.t_frac));
+                if !retires && !d.entry_at_or_beyond(self.shell_limit, self.p.t_frac) {
                     self.cell_pos = 0;
                     return CtuState::Scan;
                 }
@@ -418,6 +615,10 @@ impl Ctu {
     fn start_step(&mut self, now: u64) {
         let slot = self.remaining[self.cursor] as usize;
         let mut dda = self.slots[slot].dda.expect("stepping a ray in the grid");
+        if self.p.overlap && self.slots[slot].snap_sub != self.sub {
+            self.slots[slot].snap = Some(dda);
+            self.slots[slot].snap_sub = self.sub;
+        }
         self.slots[slot].dda = dda.step().then_some(dda);
         self.stats.dda_steps += 1;
         self.timer = now + self.p.dda_cycles_per_step as u64;
@@ -441,9 +642,99 @@ impl Ctu {
         }
     }
 
+    /// A patch record arrived: one load fewer pending (and of its subshell's phase).
+    fn arrived(&mut self, patch: u32) {
+        self.pending_loads -= 1;
+        if self.p.overlap {
+            self.pending_ph[self.phase_of[patch as usize] as usize] -= 1;
+        }
+    }
+
+    /// True when draining subshell `d` may join: every patch it requested has arrived, its
+    /// jobs are all issued and every result is back.
+    fn drain_due(&self, d: Drain) -> bool {
+        self.pending_ph[d.phase] == 0
+            && self.outstanding_ph[d.phase] == 0
+            && self
+                .issuing
+                .is_none_or(|(p, _)| self.phase_of[p as usize] as usize != d.phase)
+    }
+
+    /// Overlapped joins: the traversal of the current subshell is over; it drains, and the
+    /// traversal goes on with the next subshell (or shell).
+    fn start_drain(&mut self) {
+        self.draining = Some(Drain {
+            sub: self.sub,
+            phase: (self.sub & 1) as usize,
+        });
+        self.sub += 1;
+        self.subshell_loads = 0;
+        if self.shell_end {
+            self.shell += 1;
+            self.state = CtuState::ShellStart;
+        } else {
+            self.stats.subshells += 1;
+            // The step begun at the subshell's end goes on, unless its ray has retired.
+            self.state = if self.boundary_ray.is_some()
+                && self.remaining.get(self.cursor).copied() == self.boundary_ray
+            {
+                CtuState::Step
+            } else {
+                self.enter_ray()
+            };
+        }
+    }
+
+    /// Overlapped joins: the join of draining subshell `d` — the exact rule against each
+    /// ray's position at the end of `d` (before any step the traversal took since) — while
+    /// the traversal and the issuer go on at the same rays in the shorter list.
+    fn drain_join(&mut self, d: Drain, pool: &mut RayList) {
+        let tf = self.p.t_frac;
+        let resume = self.remaining.get(self.cursor).copied();
+        let issuing = self.issuing.map(|(p, i)| (p, self.remaining[i]));
+        for &s in &self.remaining {
+            let slot = &mut self.slots[s as usize];
+            let pos = if slot.snap_sub == d.sub + 1 {
+                slot.snap
+            } else {
+                slot.dda
+            };
+            slot.retired = match (&pos, slot.best) {
+                (None, _) => true,
+                (Some(p), Some(b)) => p.entry_beyond(b.t + STOP_SLACK_T_LSB, tf),
+                (Some(_), None) => false,
+            };
+        }
+        self.remaining.retain(|&s| !self.slots[s as usize].retired);
+        if self.p.bundle {
+            self.list ^= 1;
+            let slots = &self.slots;
+            pool.write(self.list, &self.remaining, |s| slots[s as usize].ray);
+        }
+        self.cursor = match resume {
+            Some(r) => self.remaining.partition_point(|&s| s < r),
+            None => self.remaining.len(),
+        };
+        if let Some((p, r)) = issuing {
+            let i = self.remaining.partition_point(|&s| s < r);
+            self.issuing = (i < self.remaining.len()).then_some((p, i));
+        }
+        let moved = self.remaining.get(self.cursor).copied() != resume;
+        if moved
+            && matches!(
+                self.state,
+                CtuState::Scan | CtuState::Request | CtuState::Step
+            )
+        {
+            // The ray being walked retired: the traversal goes on with the next one.
+            self.state = self.enter_ray();
+        }
+        self.draining = None;
+    }
+
     /// The join: retire every ray that no unprocessed cell can give a nearer hit, then go on
     /// with the shell (after a subshell) or start the next one.
-    fn join(&mut self) {
+    fn join(&mut self, pool: &mut RayList) {
         let tf = self.p.t_frac;
         let resume_ray = self.remaining.get(self.cursor).copied();
         for &s in &self.remaining {
@@ -455,6 +746,12 @@ impl Ctu {
             };
         }
         self.remaining.retain(|&s| !self.slots[s as usize].retired);
+        if self.p.bundle {
+            // Every descriptor of the old list is back: write the other one.
+            self.list ^= 1;
+            let slots = &self.slots;
+            pool.write(self.list, &self.remaining, |s| slots[s as usize].ray);
+        }
         self.subshell_loads = 0;
         if self.shell_end {
             self.shell += 1;
@@ -511,6 +808,8 @@ mod tests {
             shell_raw: f.t.max_raw() as i64,
             t_frac: f.t.frac_bits,
             t_max: f.t.max_raw() as i64,
+            bundle: false,
+            overlap: false,
         }
     }
 
@@ -530,6 +829,8 @@ mod tests {
         let mut jobs = Link::new(2).wired(me, UnitId::RayBuffer(0));
         let mut results = Link::new(2).wired(UnitId::Icu(0), me);
         let mut remote = Link::new(2).wired(UnitId::Balancer, me);
+        let mut descs = Link::new(2).wired(me, UnitId::RayBuffer(0));
+        let mut pool = RayList::new(&[0, 1]);
         let (mut states, mut asked, mut issued) = (vec![], vec![], vec![]);
         let mut in_memory: Vec<(u64, u32)> = vec![];
         for now in 0..500u64 {
@@ -539,6 +840,8 @@ mod tests {
                 jobs: &mut jobs,
                 results: &mut results,
                 remote_results: &mut remote,
+                descs: &mut descs,
+                pool: &mut pool,
             };
             ctu.tick(now, &mut io, &cells);
             if states.last() != Some(&ctu.state.name()) {
@@ -603,6 +906,14 @@ mod tests {
         jobs.sort();
         assert_eq!(jobs, vec![(0, 1), (0, 2), (1, 1), (1, 2)]);
         assert_eq!(ctu.stats.jobs_issued, 4);
+        // The per-state counters partition the cycles; a join that waited split its wait.
+        let st = &ctu.stats;
+        assert_eq!(
+            st.state_cycles.total(),
+            st.busy_cycles + st.stalled_cycles + st.idle_cycles
+        );
+        assert!(st.state_cycles.join > st.join_wait_patches + st.join_wait_results);
+        assert!(st.state_cycles.step >= 2 * st.dda_steps - 1, "{st:?}");
         assert_eq!(ctu.stats.results, 4);
         // Patch 1 goes out at once; patch 2 finds the request link still full (REQUEST).
         assert_eq!(

@@ -9,3 +9,4 @@ pub mod icu;
 pub mod memory;
 pub mod patch_buffer;
 pub mod ray_buffer;
+pub mod ray_pool;

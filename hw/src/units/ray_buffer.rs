@@ -3,9 +3,17 @@
 //! bringing work-items from other clusters — while it has room, starting round-robin so no
 //! input is favoured when room runs short. Told to by the balancer, it splits a work-item off
 //! the back of its queue for a starving cluster.
+//!
+//! With `job_source = "bundle"` ([`RayBuffer::tick_bundle`]) it holds descriptors instead
+//! (one per arrived patch: the patch against its CTU's remaining rays), takes one per cycle
+//! from each input, and expands the front one into jobs at the ICU's input, one per cycle,
+//! through a two-job queue. A split order cuts a work-item of up to N jobs off the back of
+//! the last descriptor (never the front descriptor's last job) and sends it as a descriptor.
 
 use crate::link::{Link, UnitId};
-use crate::msg::{Job, SplitOrder, WorkItem};
+use crate::msg::{Descriptor, Job, SplitOrder, WorkItem};
+use crate::units::ray_pool::RayList;
+use std::collections::VecDeque;
 
 /// Ray-buffer counters.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -17,6 +25,8 @@ pub struct RayBufferStats {
     /// Σ occupancy over cycles (mean occupancy = this / cycles).
     pub occupancy_sum: u64,
     pub max_occupancy: u64,
+    /// Descriptors taken in (bundle only; their jobs enter the queue as `jobs_in`).
+    pub descriptors_in: u64,
 }
 
 /// The ray buffer.
@@ -25,7 +35,26 @@ pub struct RayBuffer {
     /// The queue the ICU pops.
     pub queue: Link<Job>,
     next: usize,
+    /// Descriptors waiting to be expanded (bundle only), at most `desc_capacity`.
+    descs: VecDeque<Descriptor>,
+    desc_capacity: usize,
+    /// Jobs the descriptors stand for, now and at the last edge (what others may read).
+    desc_jobs: u64,
+    desc_jobs_registered: u64,
     pub stats: RayBufferStats,
+}
+
+/// A bundle ray buffer's ports.
+pub struct BundlePorts<'a> {
+    /// From each CTU of the cluster.
+    pub inputs: &'a mut [Link<Descriptor>],
+    /// Split descriptors arriving over the inter-cluster link.
+    pub from_network: &'a mut Link<Descriptor>,
+    pub orders: &'a mut Link<SplitOrder>,
+    pub out: &'a mut Link<WorkItem>,
+    /// Every CTU's ray pool, cluster-major (`owner · ctus_per_cluster + ctu`).
+    pub pool: &'a [RayList],
+    pub ctus_per_cluster: usize,
 }
 
 impl RayBuffer {
@@ -34,7 +63,135 @@ impl RayBuffer {
         RayBuffer {
             queue: Link::with_ports(capacity as usize, inputs),
             next: 0,
+            descs: VecDeque::new(),
+            desc_capacity: 0,
+            desc_jobs: 0,
+            desc_jobs_registered: 0,
             stats: RayBufferStats::default(),
+        }
+    }
+
+    /// A bundle buffer: `capacity` descriptors, a two-job queue before the ICU.
+    pub fn bundle(capacity: u32) -> Self {
+        RayBuffer {
+            descs: VecDeque::with_capacity(capacity as usize),
+            desc_capacity: capacity as usize,
+            ..RayBuffer::new(2, 1)
+        }
+    }
+
+    /// Jobs waiting at the last edge: in the queue and (bundle) in descriptors.
+    pub fn waiting(&self) -> usize {
+        self.queue.len() + self.desc_jobs_registered as usize
+    }
+
+    /// True when the queue and the descriptor store are empty.
+    pub fn is_empty(&self) -> bool {
+        self.queue.is_empty() && self.descs.is_empty()
+    }
+
+    /// Descriptors waiting.
+    pub fn descriptors(&self) -> usize {
+        self.descs.len()
+    }
+
+    /// The descriptor being expanded: its patch and the jobs left in it.
+    pub fn expanding(&self) -> Option<(u32, u32)> {
+        self.descs.front().map(|d| (d.patch, d.jobs()))
+    }
+
+    /// The clock edge of the buffer's own stores.
+    pub fn commit(&mut self) {
+        self.queue.commit();
+        self.desc_jobs_registered = self.desc_jobs;
+    }
+
+    /// One clock cycle of a bundle buffer: carry out a split order on the last descriptor,
+    /// expand one job of the front descriptor into the queue, take one descriptor from the
+    /// next input (round-robin) with one waiting while there is room.
+    pub fn tick_bundle(&mut self, cluster: u16, io: &mut BundlePorts) {
+        let me = UnitId::RayBuffer(cluster as usize);
+        let occ = self.queue.len() as u64 + self.desc_jobs;
+        self.stats.occupancy_sum += occ;
+        self.stats.max_occupancy = self.stats.max_occupancy.max(occ);
+        if self.descs.is_empty()
+            && io.orders.is_empty()
+            && io.from_network.is_empty()
+            && io.inputs.iter().all(Link::is_empty)
+        {
+            return;
+        }
+        if io.orders.peek().is_some() && io.out.can_push() {
+            let o = io.orders.pop(me);
+            // The front descriptor, when it is the only one, keeps a job for this ICU.
+            let keep = (self.descs.len() == 1) as u32;
+            let desc = self.descs.back_mut().and_then(|b| {
+                let k = o.jobs.min(b.jobs().saturating_sub(keep));
+                (k > 0).then(|| {
+                    let cut = Descriptor { lo: b.hi - k, ..*b };
+                    b.hi -= k;
+                    cut
+                })
+            });
+            if self.descs.back().is_some_and(|b| b.jobs() == 0) {
+                self.descs.pop_back();
+            }
+            let k = desc.map_or(0, |d| d.jobs());
+            self.desc_jobs -= k as u64;
+            self.stats.work_items_given += (k > 0) as u64;
+            self.stats.jobs_given += k as u64;
+            // Always answer: an empty work-item tells the balancer there was nothing to give.
+            io.out.push(
+                me,
+                WorkItem {
+                    from: cluster,
+                    to: o.thief,
+                    jobs: Vec::new(),
+                    desc,
+                },
+            );
+        }
+        if self.queue.can_push() {
+            if let Some(f) = self.descs.front_mut() {
+                let pool = &io.pool[f.owner as usize * io.ctus_per_cluster + f.ctu as usize];
+                let (slot, ray) = pool.get(f.list, f.lo);
+                self.queue.push(
+                    me,
+                    Job {
+                        ray,
+                        slot,
+                        patch: f.patch,
+                        ctu: f.ctu,
+                        owner: f.owner,
+                    },
+                );
+                f.lo += 1;
+                if f.lo == f.hi {
+                    self.descs.pop_front();
+                }
+                self.desc_jobs -= 1;
+                self.stats.jobs_in += 1;
+            }
+        }
+        let n = io.inputs.len() + 1;
+        let mut i = self.next;
+        for _ in 0..n {
+            if self.descs.len() >= self.desc_capacity {
+                break;
+            }
+            let link = if i < io.inputs.len() {
+                &mut io.inputs[i]
+            } else {
+                &mut *io.from_network
+            };
+            if link.peek().is_some() {
+                let d = link.pop(me);
+                self.desc_jobs += d.jobs() as u64;
+                self.descs.push_back(d);
+                self.stats.descriptors_in += 1;
+                self.next = if i + 1 == n { 0 } else { i + 1 };
+            }
+            i = if i + 1 == n { 0 } else { i + 1 };
         }
     }
 
@@ -74,6 +231,7 @@ impl RayBuffer {
                     from: cluster,
                     to: o.thief,
                     jobs,
+                    desc: None,
                 },
             );
         }
