@@ -25,6 +25,7 @@ use shellsim_hw::datapath::dda::FixedDda;
 use shellsim_hw::datapath::intersect;
 use shellsim_hw::machine::TickOrder;
 use shellsim_hw::{Exceptions, FixedHit, RayRecord};
+use std::cmp::Ordering;
 use std::path::Path;
 
 /// What to run.
@@ -345,51 +346,17 @@ fn float_dda_faults(grid: &Grid, ray: &Ray) -> (u64, u64) {
         let b = grid.cell_box(dda.coords());
         (p.cmpge(b.lo - tol).all() && p.cmple(b.hi + tol).all()) || !t.is_finite()
     };
-    let (mut skipped, mut repeated) = (u64::from(!on_ray(&dda)), 0);
-    let limit = grid.dims.iter().sum::<usize>() + 3;
-    let mut prev = dda.coords();
-    let mut steps = 0;
-    while dda.step() {
-        let c = dda.coords();
-        let wide = |c: [usize; 3]| c.map(|x| x as i64);
-        let (bad_skip, bad_rep) = step_faults(wide(prev), wide(c), |a| d[a].partial_cmp(&0.0));
-        skipped += u64::from(bad_skip || !on_ray(&dda));
-        repeated += u64::from(bad_rep);
-        prev = c;
-        steps += 1;
-        if steps > limit {
-            repeated += 1;
-            break;
-        }
-    }
-    (skipped, repeated)
-}
-
-/// A step from cell `a` to cell `b`: (skipped, repeated). `sign(axis)` is the direction's.
-fn step_faults<T: Copy + Into<i64>>(
-    a: [T; 3],
-    b: [T; 3],
-    sign: impl Fn(usize) -> Option<std::cmp::Ordering>,
-) -> (bool, bool) {
-    let mut moved = 0i64;
-    let mut backwards = false;
-    for k in 0..3 {
-        let m = b[k].into() - a[k].into();
-        moved += m.abs();
-        let want = match sign(k) {
-            Some(std::cmp::Ordering::Greater) => 1,
-            Some(std::cmp::Ordering::Less) => -1,
-            _ => 0,
-        };
-        if m != 0 && m.signum() != want {
-            backwards = true;
-        }
-    }
-    (moved > 1, moved == 0 || backwards)
+    let first = on_ray(&dda);
+    let sign = d.map(|x| x.partial_cmp(&0.0).unwrap_or(Ordering::Equal));
+    let limit = grid.dims.iter().sum::<usize>();
+    walk_faults(dda.coords().map(|x| x as i64), first, sign, limit, || {
+        dda.step()
+            .then(|| (dda.coords().map(|x| x as i64), on_ray(&dda)))
+    })
 }
 
 /// The fixed-point DDA's faults on record `r`: (skipped, repeated); the first cell must
-/// hold the origin.
+/// hold the origin, each step as for the float DDA.
 fn fixed_dda_faults(host: &HostFixed, r: &RayRecord) -> (u64, u64) {
     let cells = &host.scene.cells;
     let Some(mut dda) = FixedDda::new(cells, r) else {
@@ -400,15 +367,44 @@ fn fixed_dda_faults(host: &HostFixed, r: &RayRecord) -> (u64, u64) {
         let c = dda.c[a] as i64;
         c * cr <= r.o[a] && (r.o[a] < (c + 1) * cr || c + 1 == cells.dims[a] as i64)
     });
-    let (mut skipped, mut repeated) = (u64::from(!holds), 0);
-    let limit = cells.dims.iter().sum::<u32>() as usize + 3;
-    let mut prev = dda.c;
+    let sign = r.d.map(|x| x.cmp(&0));
+    let limit = cells.dims.iter().sum::<u32>() as usize;
+    walk_faults(dda.c.map(i64::from), holds, sign, limit, || {
+        dda.step().then(|| (dda.c.map(i64::from), true))
+    })
+}
+
+/// Counts a walk's faults: (skipped, repeated). It starts in `start` (`first_ok`: the right
+/// cell); `next` steps and gives the new cell and whether the ray passes through it, or
+/// `None` at the end. A step must move one cell along one axis in that axis's `sign`; more
+/// is a skip, none or backwards a repeat, and a walk longer than `limit` steps (the grid's
+/// dimensions summed) repeats.
+fn walk_faults(
+    start: [i64; 3],
+    first_ok: bool,
+    sign: [Ordering; 3],
+    limit: usize,
+    mut next: impl FnMut() -> Option<([i64; 3], bool)>,
+) -> (u64, u64) {
+    let (mut skipped, mut repeated) = (u64::from(!first_ok), 0);
+    let mut prev = start;
     let mut steps = 0;
-    while dda.step() {
-        let (s, rp) = step_faults(prev, dda.c, |a| Some(r.d[a].cmp(&0)));
-        skipped += u64::from(s);
-        repeated += u64::from(rp);
-        prev = dda.c;
+    while let Some((c, on_ray)) = next() {
+        let mut moved = 0;
+        let mut backwards = false;
+        for k in 0..3 {
+            let m = c[k] - prev[k];
+            moved += m.abs();
+            let want = match sign[k] {
+                Ordering::Greater => 1,
+                Ordering::Less => -1,
+                Ordering::Equal => 0,
+            };
+            backwards |= m != 0 && m.signum() != want;
+        }
+        skipped += u64::from(moved > 1 || !on_ray);
+        repeated += u64::from(moved == 0 || backwards);
+        prev = c;
         steps += 1;
         if steps > limit {
             repeated += 1;
@@ -726,4 +722,31 @@ pub fn run(opts: &Options) -> Result<Report> {
 /// Every case's name.
 pub fn all_cases() -> Vec<String> {
     cases::CASES.iter().map(|(n, _)| n.to_string()).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The walk check sees a jump, a standstill, a step back and a cell off the ray.
+    #[test]
+    fn walk_faults_sees_every_kind_of_bad_step() {
+        let up = [Ordering::Greater, Ordering::Greater, Ordering::Equal];
+        let run = |cells: &[([i64; 3], bool)]| {
+            let mut it = cells.iter().copied();
+            walk_faults([0, 0, 0], true, up, 10, || it.next())
+        };
+        assert_eq!(run(&[([1, 0, 0], true), ([1, 1, 0], true)]), (0, 0));
+        assert_eq!(run(&[([1, 1, 0], true)]), (1, 0), "diagonal jump");
+        assert_eq!(run(&[([0, 0, 0], true)]), (0, 1), "standstill");
+        assert_eq!(run(&[([1, 0, 0], true), ([0, 0, 0], true)]), (0, 1), "back");
+        assert_eq!(run(&[([0, 0, 1], true)]), (0, 1), "along a zero component");
+        assert_eq!(run(&[([1, 0, 0], false)]), (1, 0), "off the ray");
+        let mut n = 0;
+        let endless = walk_faults([0, 0, 0], true, up, 10, || {
+            n += 1;
+            Some(([n, 0, 0], true))
+        });
+        assert_eq!(endless, (0, 1), "a walk past the grid's length");
+    }
 }
