@@ -23,7 +23,7 @@ pub fn run(a: &CheckArgs) -> Result<()> {
     let (scene, spec) = r.load()?;
     for p in scene.lying_on(spec.source) {
         eprintln!(
-            "warning: {}: patch {} (the source) lies on patch {p}: coplanar and overlapping, rays leaving it meet patch {p} at t = 0 (their differences are classed near the origin)",
+            "warning: {}: patch {} (the source) lies on patch {p}: coplanar and overlapping, rays leaving it start an LSB above its plane, so patch {p} lies behind them; at few bits the answer can still turn on rounding (classed near the origin)",
             r.input.scene.display(),
             spec.source
         );

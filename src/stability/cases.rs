@@ -554,7 +554,7 @@ fn near_origin(n: usize, seed: u64) -> Case {
     Case {
         name: "near-origin",
         about: "rays leaving the floor 1e-2 down to 1e-8 from where it meets a wall, hitting the wall 1 to 4 times as far away, at |n·d| ≥ 0.23",
-        why: "the quantized origin may lie on or beyond the wall's plane, so the wall is missed or met at t ≈ 0 (classed near the origin); δ = 1e-8 is below every LSB",
+        why: "an origin rounded onto the floor's edge would lie on the wall's plane (the wall missed, or met a fraction of an LSB above their shared edge); the host starts a ray leaving its source an LSB inside the source and off its plane (`HostFixed::ray_from`), so it meets the wall at least an LSB above the edge at every width; δ = 1e-8 is below every LSB",
         scene: s,
         source: 0,
         rays,
@@ -635,7 +635,7 @@ fn coplanar_source(n: usize, seed: u64) -> Case {
     Case {
         name: "coplanar-source",
         about: "the source is a tile lying on the floor (coplanar and overlapping): every ray leaves the floor's plane at t = 0",
-        why: "the float test meets the floor's plane at exactly t = 0 (no hit); the fixed-point shear rounds the floor's vertices off that plane, so shallow rays meet it at t ≈ LSB / |n·d| (classed coplanar with the source, warned about by name)",
+        why: "the float test meets the floor's plane at exactly t = 0 (no hit); the host starts the tile's rays an LSB off its plane (`HostFixed::ray_from`), so the floor lies behind them in fixed point too, except at so few bits that the floor's rounded plane rises above that LSB (classed coplanar with the source, warned about by name)",
         scene: s,
         source: 6,
         rays: set.rays,
@@ -931,7 +931,7 @@ fn format_limits(n: usize, seed: u64) -> Case {
     Case {
         name: "format-limits",
         about: "origins beyond the coordinate format's range (3 to 1000 scene scales away along an axis), on the grid's corners, half an LSB inside a wall; directions to a corner of the room scaled by 1e-150 and 1e150",
-        why: "an origin the format cannot hold has no ray record: the host counts it as an overflow (classed overflow), never wraps it",
+        why: "an origin the format cannot hold has no ray record: the host counts it as an overflow (classed overflow), never wraps it; an origin half an LSB in front of a wall rounds onto its plane and meets it at t = 0, which the datapath takes as a hit (classed near the origin)",
         scene: s,
         source: 6,
         rays,

@@ -18,6 +18,7 @@ use crate::machine::run::{simulate, MachineInput, RunSpec};
 use crate::reference::grid::Grid;
 use crate::reference::tracer::{Dda, Hit, PreparedRay, Ray, Tracer};
 use cases::Case;
+use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 use shellsim_hw::config::MachineConfig;
@@ -194,7 +195,7 @@ pub fn warnings(case: &Case) -> Vec<String> {
         .iter()
         .map(|p| {
             format!(
-                "{}: patch {} (the source) lies on patch {p}: coplanar and overlapping, rays leaving it meet patch {p} at t = 0, where the answer turns on rounding",
+                "{}: patch {} (the source) lies on patch {p}: coplanar and overlapping, rays leaving it start an LSB above its plane, so patch {p} lies behind them; at few bits the answer can still turn on rounding",
                 case.name, case.source
             )
         })
@@ -459,6 +460,27 @@ fn float_row(ctx: &Ctx, host30: &HostFixed) -> Row {
     row(ctx, Model::Float, None, &out)
 }
 
+/// The fixed-point record of ray `i` of `case`: a ray that starts on the case's source is
+/// converted as `run`, `matrix`, `check` and `size` convert it (`HostFixed::ray_from`: an
+/// LSB inside the source's bounds and off its plane, to the front), any other by rounding
+/// alone (`HostFixed::ray`).
+pub fn record(host: &HostFixed, case: &Case, i: usize) -> Option<RayRecord> {
+    let ray = &case.rays[i];
+    let p = &case.scene.patches[case.source as usize];
+    let on_plane = p.normal().dot(ray.o - p.vertices[0]).abs() <= 1e-12 * case.scene.bounds.scale();
+    let lo = p.vertices.iter().fold(DVec3::INFINITY, |a, &v| a.min(v));
+    let hi = p
+        .vertices
+        .iter()
+        .fold(DVec3::NEG_INFINITY, |a, &v| a.max(v));
+    let inside = ray.o.cmpge(lo).all() && ray.o.cmple(hi).all();
+    if on_plane && inside {
+        host.ray_from(i as u32, ray, case.source)
+    } else {
+        host.ray(i as u32, ray)
+    }
+}
+
 /// The untimed fixed-point model's row at `bits`, with the records the machine runs
 /// (`(ray index, record)` for every ray that has one).
 fn fixed_row(ctx: &Ctx, host: &HostFixed, bits: u32) -> (Row, Vec<(usize, RayRecord)>) {
@@ -467,8 +489,7 @@ fn fixed_row(ctx: &Ctx, host: &HostFixed, bits: u32) -> (Row, Vec<(usize, RayRec
     let per: Vec<((usize, RayOutcome), Option<RayRecord>)> = (0..case.rays.len())
         .into_par_iter()
         .map(|i| {
-            let ray = &case.rays[i];
-            let rec = host.ray(i as u32, ray);
+            let rec = record(host, case, i);
             let mut exc = Exceptions::default();
             let (hit, faults) = match &rec {
                 Some(r) => (
