@@ -1,10 +1,12 @@
-//! The fuzz suite: property tests that mutate valid scene JSON, OBJ and machine TOML files
+//! The fuzz suite: property tests that mutate valid scene JSON, OBJ, machine TOML files and
+//! explore specs
 //! (byte flips, deletions, insertions, duplicated and swapped tokens, numbers replaced by
 //! extremes) and feed them to the parsers the CLI uses. Every case must end in one of two
 //! ways: an `Error` of exit status 2 whose message names the file and says something, or
 //! success with a value that passes validation again. A panic fails the case. Case counts
-//! (`CASES_*`) add up to more than 10⁵ per parser; the binary runs in well under a minute
-//! on 2 cores in release.
+//! (`CASES_*`) add up to more than 10⁵ per parser (2 × 10⁴ for the explore spec, whose parse
+//! loads its scenes and parses a configuration per point); the binary runs in well under a
+//! minute on 2 cores in release.
 
 mod common;
 
@@ -17,6 +19,8 @@ use std::path::Path;
 const CASES_JSON: u32 = 100_000;
 const CASES_OBJ: u32 = 100_000;
 const CASES_TOML: u32 = 100_000;
+/// An explore spec parse loads its scene and parses a configuration per point: fewer cases.
+const CASES_SPEC: u32 = 10_000;
 
 /// Numbers a mutation puts in place of a number.
 const EXTREMES: [&str; 16] = [
@@ -237,6 +241,27 @@ fn toml_case(base: &[u8], muts: &[Mutation]) -> CaseResult {
     Ok(Outcome::Valid)
 }
 
+/// An explore spec case: a spec whose every point validates, or an error by the contract.
+fn spec_case(base: &[u8], muts: &[Mutation]) -> CaseResult {
+    let b = mutated(base, muts);
+    let file = common::scene_path("fuzz-spec.toml");
+    let Ok(text) = String::from_utf8(b.clone()) else {
+        return Ok(Outcome::NotUtf8);
+    };
+    match shellsim::explore::spec::parse(&text, &file) {
+        Ok(s) => {
+            for p in &s.points {
+                prop_assert!(p.config.validate().is_ok());
+            }
+        }
+        Err(e) => {
+            check_error(&e, "fuzz-spec.toml", &b)?;
+            return Ok(Outcome::Refused);
+        }
+    }
+    Ok(Outcome::Valid)
+}
+
 fn muts() -> impl Strategy<Value = Vec<Mutation>> {
     prop::collection::vec(mutation(), 1..4)
 }
@@ -310,6 +335,23 @@ fn toml_paper() {
         shellsim_hw::config::PAPER_TOML.as_bytes(),
         toml_case,
     );
+}
+
+#[test]
+fn spec_ci() {
+    // Scene paths are relative to the spec, which "lives" in scenes/.
+    let base = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/explore/ci.toml"),
+    )
+    .unwrap()
+    .replace("../../scenes/scene2.json", "scene1.json");
+    fuzz("spec ci.toml", CASES_SPEC, base.as_bytes(), spec_case);
+}
+
+#[test]
+fn spec_blocks() {
+    let base = "title = \"blocks\"\nscene = [\"scene1.json\", \"cornell.json\"]\nlevel = \"fixed\"\n[[sweep]]\nratio = { from = 1, to = 3 }\ncell = [0.05, \"auto\"]\n[[point]]\nlevel = \"machine\"\nmachine.clusters = 2\nbalance.enabled = false\n";
+    fuzz("spec blocks", CASES_SPEC, base.as_bytes(), spec_case);
 }
 
 #[test]

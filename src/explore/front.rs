@@ -7,6 +7,15 @@ pub fn dominates(a: (f64, f64), b: (f64, f64)) -> bool {
     a.0 <= b.0 && a.1 <= b.1 && (a.0 < b.0 || a.1 < b.1)
 }
 
+/// The order of a front: by x, then y, then index.
+fn by_x_y_index(pts: &[(f64, f64)], a: usize, b: usize) -> std::cmp::Ordering {
+    pts[a]
+        .0
+        .total_cmp(&pts[b].0)
+        .then(pts[a].1.total_cmp(&pts[b].1))
+        .then(a.cmp(&b))
+}
+
 /// The indices of the non-dominated points of `pts`, ordered by x, then y, then index.
 /// O(n log n): sorted by x, a point is on the front when its y is the least at its x and
 /// below every y at a smaller x.
@@ -14,13 +23,7 @@ pub fn front(pts: &[(f64, f64)]) -> Vec<usize> {
     let mut order: Vec<usize> = (0..pts.len())
         .filter(|&i| !pts[i].0.is_nan() && !pts[i].1.is_nan())
         .collect();
-    order.sort_by(|&a, &b| {
-        pts[a]
-            .0
-            .total_cmp(&pts[b].0)
-            .then(pts[a].1.total_cmp(&pts[b].1))
-            .then(a.cmp(&b))
-    });
+    order.sort_by(|&a, &b| by_x_y_index(pts, a, b));
     let mut out = Vec::new();
     // The least y at a smaller x (none yet).
     let mut best: Option<f64> = None;
@@ -57,13 +60,7 @@ mod tests {
                     })
             })
             .collect();
-        v.sort_by(|&a, &b| {
-            pts[a]
-                .0
-                .total_cmp(&pts[b].0)
-                .then(pts[a].1.total_cmp(&pts[b].1))
-                .then(a.cmp(&b))
-        });
+        v.sort_by(|&a, &b| by_x_y_index(pts, a, b));
         v
     }
 

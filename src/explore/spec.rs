@@ -287,15 +287,18 @@ impl Parser<'_> {
                 if a > b {
                     return Err(empty(a.to_string(), b.to_string()));
                 }
-                let n = ((b as i128 - a as i128) / s as i128) as u64 + 1;
-                if n > MAX_VALUES {
+                let n = (b as i128 - a as i128) / s as i128 + 1;
+                if n > MAX_VALUES as i128 {
                     return Err(self.err(
                         line,
                         key,
                         format!("a range of {n} values (at most {MAX_VALUES})"),
                     ));
                 }
-                Ok((0..n as i64).map(|i| Val::Int(a + i * s)).collect())
+                // Each value lies in a..=b, so it fits; the product may not fit i64.
+                Ok((0..n)
+                    .map(|i| Val::Int((a as i128 + i * s as i128) as i64))
+                    .collect())
             }
             (a, b, s) => {
                 let f = |v: &Val| match v {
@@ -313,15 +316,17 @@ impl Parser<'_> {
                 if a > b {
                     return Err(empty(a.to_string(), b.to_string()));
                 }
-                let n = ((b - a) / s + 1e-9).floor() as u64 + 1;
-                if n > MAX_VALUES {
+                let n = ((b - a) / s + 1e-9).floor() + 1.0;
+                if n > MAX_VALUES as f64 {
                     return Err(self.err(
                         line,
                         key,
                         format!("a range of {n} values (at most {MAX_VALUES})"),
                     ));
                 }
-                Ok((0..n).map(|i| Val::Float(a + i as f64 * s)).collect())
+                Ok((0..n as u64)
+                    .map(|i| Val::Float(a + i as f64 * s))
+                    .collect())
             }
         }
     }
@@ -633,8 +638,17 @@ impl Builder<'_> {
                         Some(i) => i,
                         None => {
                             let path = self.dir.join(&w);
-                            let s = Scene::load(&path)?;
-                            let bytes = crate::limits::read_input(&path)?;
+                            // An error in the scene names the spec's line and the scene file.
+                            let in_scene = |err: Error| match err {
+                                Error::Input { file, place, what } => p.err(
+                                    e.line,
+                                    "scene",
+                                    format!("{}: {place}: {what}", file.display()),
+                                ),
+                                err => err,
+                            };
+                            let s = Scene::load(&path).map_err(in_scene)?;
+                            let bytes = crate::limits::read_input(&path).map_err(in_scene)?;
                             let bytes_hash = fnv1a(&bytes, FNV_START);
                             self.scenes.push(SpecScene {
                                 written: w,
