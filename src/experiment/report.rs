@@ -591,12 +591,12 @@ fn ctu_state_table(p: &Point) -> String {
         (
             "JOIN, waiting for patches",
             p.join_wait_patches,
-            "a requested patch record not yet arrived",
+            "a requested patch record not yet at the CTU, nothing to issue",
         ),
         (
             "JOIN, waiting for results",
             p.join_wait_results,
-            "every patch in, jobs still being issued or computed",
+            "jobs being issued (`ctu`) or computed",
         ),
         (
             "JOIN, joining",
