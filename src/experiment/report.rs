@@ -415,12 +415,21 @@ fn variants_section(r: &PaperResults) -> String {
         );
         let _ = writeln!(
             s,
-            "Its ICUs are idle {} of their cycles. The busiest CTU's critical path is its own\n\
-             traversal — one patch id scanned per cycle, one DDA step per {} cycles — and its\n\
-             joins: the {} ICU-cycles per ICU the bound allows leave it no slack.\n",
+            "Its ICUs are idle {} of their cycles. The resource bound names `{}`, but what holds\n\
+             the run is the busiest sector's serial chain: its CTU ({} jobs) spends {} cycles\n\
+             traversing (one patch id scanned per cycle, one DDA step per {} cycles) and {} at\n\
+             joins, {} of the run, while its cluster's ray buffer drains its subshells through\n\
+             one ICU and what balancing moves. Hardware that would lift it: a scan of several\n\
+             patch ids per cycle against the loaded-patch bitmap, more and smaller sectors (CTUs\n\
+             per cluster), more than one subshell ahead, and a ray buffer that serves the\n\
+             busiest sector's descriptors first.\n",
             pc(p.icu_idle_fraction()),
+            b.binding().name(),
+            p.busiest_ctu_jobs,
+            p.busiest_ctu_traversal,
             r.base.machine.dda_cycles_per_step,
-            b.icu
+            p.busiest_ctu_join,
+            pc(frac(p.busiest_ctu_traversal + p.busiest_ctu_join, p.cycles))
         );
     }
     // Balancing's gain on the best variant.
