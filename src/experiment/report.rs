@@ -952,7 +952,8 @@ pub fn report(r: &PaperResults) -> String {
             "\nThe best of these, *{}*, reaches a same-work speedup of {:.2} at 8 ICUs ({} of\n\
              ideal, {} of its resource bound, efficiency {:.3}). What it leaves is the ICUs' idle\n\
              time ({}), most likely at the joins, where a sector issues nothing until its last results\n\
-             are back (the machine has no counter that says so directly). The hardware\n\
+             are back (its CTUs spend {} of their cycles at joins: {} waiting for patches, {}\n\
+             issuing jobs or waiting for results; the machine variants below act on both). The hardware\n\
              changes this points to: per-cluster delivery queues in the memory (or grants only into\n\
              reserved patch-buffer room) instead of one in-order queue; more, smaller sectors per\n\
              cluster; and a CTU that traverses its next subshell while the current one's jobs drain.\n",
@@ -961,7 +962,10 @@ pub fn report(r: &PaperResults) -> String {
             pc(best.speedup() / 8.0),
             pc(best.on.of_bound()),
             best.on.pipeline_efficiency,
-            pc(best.on.icu_idle_fraction())
+            pc(best.on.icu_idle_fraction()),
+            pc(frac(best.on.ctu_states.join, best.on.ctu_states.total())),
+            pc(frac(best.on.join_wait_patches, best.on.ctu_states.total())),
+            pc(frac(best.on.join_wait_results, best.on.ctu_states.total()))
         );
     }
 
