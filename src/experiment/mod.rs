@@ -172,6 +172,11 @@ pub struct Point {
     /// Of the CTUs' JOIN cycles: waiting for patches, waiting for results (summed).
     pub join_wait_patches: u64,
     pub join_wait_results: u64,
+    /// The CTU with the most jobs: its jobs, cycles traversing (SCAN, REQUEST, STEP) and
+    /// cycles at joins.
+    pub busiest_ctu_jobs: u64,
+    pub busiest_ctu_traversal: u64,
+    pub busiest_ctu_join: u64,
     pub bound: Bound,
 }
 
@@ -180,6 +185,7 @@ impl Point {
     pub fn new(stats: &RunStats, cfg: &MachineConfig, ratio: usize) -> Point {
         let icus = stats.clusters.iter().map(|c| &c.icu);
         let ctus = || stats.clusters.iter().flat_map(|c| &c.ctus);
+        let busiest = ctus().max_by_key(|c| c.jobs_issued);
         Point {
             scene: stats.scene.clone(),
             ratio,
@@ -210,6 +216,11 @@ impl Point {
             }),
             join_wait_patches: ctus().map(|c| c.join_wait_patches).sum(),
             join_wait_results: ctus().map(|c| c.join_wait_results).sum(),
+            busiest_ctu_jobs: busiest.map_or(0, |c| c.jobs_issued),
+            busiest_ctu_traversal: busiest.map_or(0, |c| {
+                c.state_cycles.scan + c.state_cycles.request + c.state_cycles.step
+            }),
+            busiest_ctu_join: busiest.map_or(0, |c| c.state_cycles.join),
             bound: Bound::of(stats, cfg),
         }
     }

@@ -415,12 +415,21 @@ fn variants_section(r: &PaperResults) -> String {
         );
         let _ = writeln!(
             s,
-            "Its ICUs are idle {} of their cycles. The busiest CTU's critical path is its own\n\
-             traversal — one patch id scanned per cycle, one DDA step per {} cycles — and its\n\
-             joins: the {} ICU-cycles per ICU the bound allows leave it no slack.\n",
+            "Its ICUs are idle {} of their cycles. The resource bound names `{}`, but what holds\n\
+             the run is the busiest sector's serial chain: its CTU ({} jobs) spends {} cycles\n\
+             traversing (one patch id scanned per cycle, one DDA step per {} cycles) and {} at\n\
+             joins, {} of the run, while its cluster's ray buffer drains its subshells through\n\
+             one ICU and what balancing moves. Hardware that would lift it: a scan of several\n\
+             patch ids per cycle against the loaded-patch bitmap, more and smaller sectors (CTUs\n\
+             per cluster), more than one subshell ahead, and a ray buffer that serves the\n\
+             busiest sector's descriptors first.\n",
             pc(p.icu_idle_fraction()),
+            b.binding().name(),
+            p.busiest_ctu_jobs,
+            p.busiest_ctu_traversal,
             r.base.machine.dda_cycles_per_step,
-            b.icu
+            p.busiest_ctu_join,
+            pc(frac(p.busiest_ctu_traversal + p.busiest_ctu_join, p.cycles))
         );
     }
     // Balancing's gain on the best variant.
@@ -591,12 +600,12 @@ fn ctu_state_table(p: &Point) -> String {
         (
             "JOIN, waiting for patches",
             p.join_wait_patches,
-            "a requested patch record not yet arrived",
+            "a requested patch record not yet at the CTU, nothing to issue",
         ),
         (
             "JOIN, waiting for results",
             p.join_wait_results,
-            "every patch in, jobs still being issued or computed",
+            "jobs being issued (`ctu`) or computed",
         ),
         (
             "JOIN, joining",
@@ -943,7 +952,8 @@ pub fn report(r: &PaperResults) -> String {
             "\nThe best of these, *{}*, reaches a same-work speedup of {:.2} at 8 ICUs ({} of\n\
              ideal, {} of its resource bound, efficiency {:.3}). What it leaves is the ICUs' idle\n\
              time ({}), most likely at the joins, where a sector issues nothing until its last results\n\
-             are back (the machine has no counter that says so directly). The hardware\n\
+             are back (its CTUs spend {} of their cycles at joins: {} waiting for patches, {}\n\
+             issuing jobs or waiting for results; the machine variants below act on both). The hardware\n\
              changes this points to: per-cluster delivery queues in the memory (or grants only into\n\
              reserved patch-buffer room) instead of one in-order queue; more, smaller sectors per\n\
              cluster; and a CTU that traverses its next subshell while the current one's jobs drain.\n",
@@ -952,7 +962,10 @@ pub fn report(r: &PaperResults) -> String {
             pc(best.speedup() / 8.0),
             pc(best.on.of_bound()),
             best.on.pipeline_efficiency,
-            pc(best.on.icu_idle_fraction())
+            pc(best.on.icu_idle_fraction()),
+            pc(frac(best.on.ctu_states.join, best.on.ctu_states.total())),
+            pc(frac(best.on.join_wait_patches, best.on.ctu_states.total())),
+            pc(frac(best.on.join_wait_results, best.on.ctu_states.total()))
         );
     }
 

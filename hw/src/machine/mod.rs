@@ -159,7 +159,11 @@ impl<'a> Machine<'a> {
             order.push(UnitId::Icu(c));
         }
         Machine {
-            balancer: Balancer::new(cfg.balance, nc),
+            balancer: Balancer::new(cfg.balance, nc).with_low_water(if bundle {
+                cfg.balance.work_item_jobs as usize
+            } else {
+                0
+            }),
             links: Links::new(&cfg.machine),
             occupancy: vec![0; nc],
             pool,

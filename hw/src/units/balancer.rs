@@ -60,6 +60,10 @@ pub struct Balancer {
     inbound_desc: Vec<VecDeque<(u64, Descriptor)>>,
     /// Results on their way home to each cluster.
     returns: Vec<VecDeque<(u64, RemoteResult)>>,
+    /// A cluster asks for work when its ray buffer holds at most this many jobs: 0 (empty)
+    /// for `job_source = "ctu"`; for `"bundle"` a work-item's worth, so the next one is on
+    /// the link while the last is computed.
+    low_water: usize,
     pub stats: BalancerStats,
 }
 
@@ -88,8 +92,15 @@ impl Balancer {
             inbound: vec![VecDeque::new(); clusters],
             inbound_desc: vec![VecDeque::new(); clusters],
             returns: vec![VecDeque::new(); clusters],
+            low_water: 0,
             stats: BalancerStats::default(),
         }
+    }
+
+    /// The same balancer asking for work at `jobs` waiting or fewer (see `low_water`).
+    pub fn with_low_water(mut self, jobs: usize) -> Self {
+        self.low_water = jobs;
+        self
     }
 
     /// True when nothing is on the link and no split order is out.
@@ -103,7 +114,7 @@ impl Balancer {
     /// True when cluster `c` would raise a new request this cycle.
     pub fn would_request(&self, c: usize, occupancy: usize, net_in_empty: bool) -> bool {
         self.requests[c].is_none()
-            && occupancy == 0
+            && occupancy <= self.low_water
             && self.inbound[c].is_empty()
             && self.inbound_desc[c].is_empty()
             && net_in_empty
@@ -401,6 +412,54 @@ mod tests {
         assert!(b.requesting(1));
         assert_eq!(net.order(2), Some(SplitOrder { thief: 1, jobs: 3 }));
         assert_eq!(net.order(3), None);
+    }
+
+    #[test]
+    fn a_low_water_mark_asks_before_the_buffer_runs_empty() {
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 2).with_low_water(3);
+        let mut net = Net::new(2);
+        net.tick(&mut b, 0, &[4, 9]);
+        assert_eq!(b.stats.work_requests, 0);
+        net.tick(&mut b, 1, &[3, 9]);
+        assert!(b.requesting(0));
+        assert_eq!(net.order(1), Some(SplitOrder { thief: 0, jobs: 3 }));
+    }
+
+    #[test]
+    fn a_split_descriptor_crosses_the_link_as_one_message_costed_in_words() {
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 2);
+        let mut net = Net::new(2);
+        net.tick(&mut b, 0, &[0, 50]);
+        net.order(1).unwrap();
+        let d = Descriptor {
+            patch: 7,
+            ctu: 0,
+            owner: 1,
+            list: 0,
+            lo: 10,
+            hi: 15,
+        };
+        net.items[1].push(
+            UnitId::RayBuffer(1),
+            WorkItem {
+                from: 1,
+                to: 0,
+                jobs: vec![],
+                desc: Some(d),
+            },
+        );
+        net.commit();
+        let mut arrived = None;
+        for now in 1..40 {
+            net.tick(&mut b, now, &[1, 40]);
+            if net.net_desc[0].peek().is_some() {
+                arrived = Some((now, net.net_desc[0].pop(UnitId::RayBuffer(0))));
+                net.net_desc[0].commit();
+            }
+        }
+        // 2 descriptor words + 5 ray ids at 1 word per cycle after the 4-cycle latency.
+        assert_eq!(arrived, Some((1 + 4 + 7, d)));
+        assert_eq!((b.stats.jobs_moved, b.stats.link_words), (5, 7));
     }
 
     #[test]

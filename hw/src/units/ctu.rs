@@ -110,8 +110,8 @@ pub struct CtuStats {
     pub subshells: u64,
     /// Cycles spent in each traversal state (they sum to all cycles).
     pub state_cycles: StateCycles,
-    /// Of the JOIN cycles that did not join: waiting for a requested patch to arrive, and
-    /// (every patch in) waiting for jobs to be issued and their results to come back.
+    /// Of the JOIN cycles that did not join: waiting for a requested patch to reach the CTU
+    /// with nothing to issue, and issuing jobs or waiting for their results.
     pub join_wait_patches: u64,
     pub join_wait_results: u64,
     /// Descriptors handed to the ray buffer (bundle only; their jobs are in `jobs_issued`).
@@ -335,14 +335,15 @@ impl Ctu {
         }
     }
 
-    /// Accounts `n` cycles at a join that cannot happen yet: waiting for patches while any
-    /// requested one is still on its way, else for jobs and their results.
+    /// Accounts `n` cycles at a join that cannot happen yet: waiting for patches while a
+    /// requested one has not reached the CTU and it has no jobs to issue, else for jobs to be
+    /// issued and their results.
     fn count_join_wait(&mut self, n: u64) {
         let pending = match self.draining {
             Some(d) if self.p.overlap => self.pending_ph[d.phase],
             _ => self.pending_loads,
         };
-        if pending > 0 {
+        if pending > 0 && self.issuing.is_none() {
             self.stats.join_wait_patches += n;
         } else {
             self.stats.join_wait_results += n;

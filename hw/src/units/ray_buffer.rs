@@ -334,6 +334,66 @@ mod tests {
     }
 
     #[test]
+    fn a_bundle_buffer_expands_descriptors_in_order_and_splits_the_last_one() {
+        let pool = vec![RayList::new(&[100, 101, 102, 103, 104, 105])];
+        let mut b = RayBuffer::bundle(4);
+        let mut inputs = vec![Link::new(2)];
+        let mut net = Link::new(2);
+        let mut orders = Link::new(1);
+        let mut out = Link::new(1);
+        let desc = |patch, lo, hi| Descriptor {
+            patch,
+            ctu: 0,
+            owner: 0,
+            list: 0,
+            lo,
+            hi,
+        };
+        let mut jobs = vec![];
+        let mut item = None;
+        for now in 0..20 {
+            if now < 2 {
+                inputs[0].push(UnitId::Ctu(0, 0), desc(now as u32 + 1, 0, 6));
+            }
+            if now == 4 {
+                orders.push(UnitId::Balancer, SplitOrder { thief: 1, jobs: 4 });
+            }
+            let mut io = BundlePorts {
+                inputs: &mut inputs,
+                from_network: &mut net,
+                orders: &mut orders,
+                out: &mut out,
+                pool: &pool,
+                ctus_per_cluster: 1,
+            };
+            b.tick_bundle(0, &mut io);
+            if b.queue.peek().is_some() {
+                let j = b.queue.pop(UnitId::Icu(0));
+                jobs.push((j.patch, j.ray));
+            }
+            if out.peek().is_some() {
+                item = Some(out.pop(UnitId::Balancer));
+            }
+            for l in [&mut inputs[0], &mut net] {
+                l.commit();
+            }
+            orders.commit();
+            out.commit();
+            b.commit();
+        }
+        // Patch 2's last 4 rays went to the thief as a descriptor; the rest expanded in order.
+        let w = item.expect("a work-item");
+        assert_eq!(w.desc, Some(desc(2, 2, 6)));
+        let want: Vec<(u32, u32)> = (100..106)
+            .map(|r| (1, r))
+            .chain([(2, 100), (2, 101)])
+            .collect();
+        assert_eq!(jobs, want);
+        assert_eq!((b.stats.descriptors_in, b.stats.jobs_given), (2, 4));
+        assert!(b.is_empty());
+    }
+
+    #[test]
     fn a_split_of_a_single_job_answers_empty() {
         let (mut b, mut inputs) = filled(1);
         let w = split(&mut b, &mut inputs, 4, false);
