@@ -686,21 +686,15 @@ impl Ctu {
         }
     }
 
-    /// Overlapped joins: the join of draining subshell `d` — the exact rule against each
-    /// ray's position at the end of `d` (before any step the traversal took since) — while
-    /// the traversal and the issuer go on at the same rays in the shorter list.
-    fn drain_join(&mut self, d: Drain, pool: &mut RayList) {
+    /// The retirement rule of a join: drop every remaining ray that has left the grid, or
+    /// whose position `at` (where its walk stood when the subshell ended) lies beyond its
+    /// best hit, so no unprocessed cell can hold a nearer one. With bundles, every
+    /// descriptor of the old ray-pool list is back: the survivors go into the other one.
+    fn retire(&mut self, pool: &mut RayList, at: impl Fn(&RaySlot) -> Option<FixedDda>) {
         let tf = self.p.t_frac;
-        let resume = self.remaining.get(self.cursor).copied();
-        let issuing = self.issuing.map(|(p, i)| (p, self.remaining[i]));
         for &s in &self.remaining {
             let slot = &mut self.slots[s as usize];
-            let pos = if slot.snap_sub == d.sub + 1 {
-                slot.snap
-            } else {
-                slot.dda
-            };
-            slot.retired = match (&pos, slot.best) {
+            slot.retired = match (at(slot), slot.best) {
                 (None, _) => true,
                 (Some(p), Some(b)) => p.entry_beyond(b.t + STOP_SLACK_T_LSB, tf),
                 (Some(_), None) => false,
@@ -712,6 +706,21 @@ impl Ctu {
             let slots = &self.slots;
             pool.write(self.list, &self.remaining, |s| slots[s as usize].ray);
         }
+    }
+
+    /// Overlapped joins: the join of draining subshell `d` — the exact rule against each
+    /// ray's position at the end of `d` (before any step the traversal took since) — while
+    /// the traversal and the issuer go on at the same rays in the shorter list.
+    fn drain_join(&mut self, d: Drain, pool: &mut RayList) {
+        let resume = self.remaining.get(self.cursor).copied();
+        let issuing = self.issuing.map(|(p, i)| (p, self.remaining[i]));
+        self.retire(pool, |slot| {
+            if slot.snap_sub == d.sub + 1 {
+                slot.snap
+            } else {
+                slot.dda
+            }
+        });
         self.cursor = match resume {
             Some(r) => self.remaining.partition_point(|&s| s < r),
             None => self.remaining.len(),
@@ -736,23 +745,8 @@ impl Ctu {
     /// The join: retire every ray that no unprocessed cell can give a nearer hit, then go on
     /// with the shell (after a subshell) or start the next one.
     fn join(&mut self, pool: &mut RayList) {
-        let tf = self.p.t_frac;
         let resume_ray = self.remaining.get(self.cursor).copied();
-        for &s in &self.remaining {
-            let slot = &mut self.slots[s as usize];
-            slot.retired = match (&slot.dda, slot.best) {
-                (None, _) => true,
-                (Some(d), Some(b)) => d.entry_beyond(b.t + STOP_SLACK_T_LSB, tf),
-                (Some(_), None) => false,
-            };
-        }
-        self.remaining.retain(|&s| !self.slots[s as usize].retired);
-        if self.p.bundle {
-            // Every descriptor of the old list is back: write the other one.
-            self.list ^= 1;
-            let slots = &self.slots;
-            pool.write(self.list, &self.remaining, |s| slots[s as usize].ray);
-        }
+        self.retire(pool, |slot| slot.dda);
         self.subshell_loads = 0;
         if self.shell_end {
             self.shell += 1;
