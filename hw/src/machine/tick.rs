@@ -17,10 +17,22 @@ impl Machine<'_> {
         let now = self.cycle;
         let n = self.order.len();
         match order {
-            // Forward and reverse walk `order` itself; only a shuffle needs the scratch copy.
+            // Forward walks the units in `order`'s sequence without reading it (each call
+            // below is one unit's arm, inlined); reverse walks `order` itself; only a shuffle
+            // needs the scratch copy.
             TickOrder::Forward => {
-                for i in 0..n {
-                    self.tick_unit(self.order[i], now);
+                let k = self.cfg.machine.ctus_per_cluster as usize;
+                self.tick_unit(UnitId::Memory, now);
+                if self.cfg.balance.enabled {
+                    self.tick_unit(UnitId::Balancer, now);
+                }
+                for c in 0..self.clusters.len() {
+                    self.tick_unit(UnitId::PatchBuffer(c), now);
+                    for j in 0..k {
+                        self.tick_unit(UnitId::Ctu(c, j), now);
+                    }
+                    self.tick_unit(UnitId::RayBuffer(c), now);
+                    self.tick_unit(UnitId::Icu(c), now);
                 }
             }
             TickOrder::Reverse => {
@@ -55,6 +67,7 @@ impl Machine<'_> {
     }
 
     /// Ticks unit `u` at cycle `now`, handing it its ports.
+    #[inline(always)]
     fn tick_unit(&mut self, u: UnitId, now: u64) {
         let k = self.cfg.machine.ctus_per_cluster as usize;
         let l = &mut self.links;
@@ -117,7 +130,7 @@ impl Machine<'_> {
                 );
             }
             UnitId::Icu(c) => {
-                let f = self.scene.formats;
+                let scene = self.scene;
                 let cl = &mut self.clusters[c];
                 let mut io = IcuPorts {
                     cluster: c as u16,
@@ -125,7 +138,7 @@ impl Machine<'_> {
                     results: Links::of_cluster(&mut l.results, k, c),
                     remote: &mut l.remote_out[c],
                 };
-                cl.icu.tick(&mut io, self.rays, &self.scene.patches, &f);
+                cl.icu.tick(&mut io, self.rays, &scene.patches, &scene.formats);
             }
         }
     }

@@ -60,6 +60,9 @@ pub struct Balancer {
     inbound_desc: Vec<VecDeque<(u64, Descriptor)>>,
     /// Results on their way home to each cluster.
     returns: Vec<VecDeque<(u64, RemoteResult)>>,
+    /// Entries of `inbound`, `inbound_desc` and `returns` (all clusters): a family with none
+    /// is not walked.
+    queued: [usize; 3],
     /// A cluster asks for work when its ray buffer holds at most this many jobs: 0 (empty)
     /// for `job_source = "ctu"`; for `"bundle"` a work-item's worth, so the next one is on
     /// the link while the last is computed.
@@ -92,6 +95,7 @@ impl Balancer {
             inbound: vec![VecDeque::new(); clusters],
             inbound_desc: vec![VecDeque::new(); clusters],
             returns: vec![VecDeque::new(); clusters],
+            queued: [0; 3],
             low_water: 0,
             stats: BalancerStats::default(),
         }
@@ -202,6 +206,7 @@ impl Balancer {
                     let words = d.link_words();
                     let at = now + self.link_cycles(words);
                     self.inbound_desc[thief].push_back((at, d));
+                    self.queued[1] += 1;
                     self.stats.work_items += 1;
                     self.stats.jobs_moved += d.jobs() as u64;
                     self.stats.link_words += words;
@@ -216,6 +221,7 @@ impl Balancer {
                     for (i, job) in item.jobs.iter().enumerate() {
                         let at = now + self.link_cycles((i as u64 + 1) * JOB_WORDS as u64);
                         self.inbound[thief].push_back((at, *job));
+                        self.queued[0] += 1;
                     }
                     self.stats.work_items += 1;
                     self.stats.jobs_moved += item.jobs.len() as u64;
@@ -225,19 +231,21 @@ impl Balancer {
             }
         }
         // Deliver arrived jobs, one per cycle per cluster.
-        for c in 0..n {
+        for c in 0..n * (self.queued[0] > 0) as usize {
             if let Some(&(at, job)) = self.inbound[c].front() {
                 if at <= now && io.to_ray_buffers[c].can_push() {
                     io.to_ray_buffers[c].push(ME, job);
                     self.inbound[c].pop_front();
+                    self.queued[0] -= 1;
                 }
             }
         }
-        for c in 0..n {
+        for c in 0..n * (self.queued[1] > 0) as usize {
             if let Some(&(at, d)) = self.inbound_desc[c].front() {
                 if at <= now && io.desc_to_ray_buffers[c].can_push() {
                     io.desc_to_ray_buffers[c].push(ME, d);
                     self.inbound_desc[c].pop_front();
+                    self.queued[1] -= 1;
                 }
             }
         }
@@ -247,15 +255,17 @@ impl Balancer {
                 let r = io.from_icus[c].pop(ME);
                 let at = now + self.link_cycles(JOB_WORDS as u64);
                 self.returns[r.owner as usize].push_back((at, r));
+                self.queued[2] += 1;
                 self.stats.link_words += JOB_WORDS as u64;
             }
         }
-        for c in 0..n {
+        for c in 0..n * (self.queued[2] > 0) as usize {
             if let Some(&(at, r)) = self.returns[c].front() {
                 let port = &mut io.to_ctus[c * io.ctus_per_cluster + r.ctu as usize];
                 if at <= now && port.can_push() {
                     port.push(ME, r.result);
                     self.returns[c].pop_front();
+                    self.queued[2] -= 1;
                     self.stats.results_returned += 1;
                 }
             }

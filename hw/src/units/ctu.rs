@@ -368,18 +368,40 @@ impl Ctu {
         self.slots.len()
     }
 
+    /// True when, with nothing at its inputs, this cycle would change nothing but the
+    /// counters [`Ctu::skip`] advances: [`Ctu::quiet`], or at a join that waits for results
+    /// (or, with overlapped joins, for the subshell draining before it).
+    #[inline]
+    fn idle_now(&self, now: u64) -> bool {
+        self.quiet(now)
+            || (self.state == CtuState::Join
+                && self.issuing.is_none()
+                && if self.p.overlap {
+                    self.draining.is_some_and(|d| !self.drain_due(d))
+                } else {
+                    self.outstanding > 0 || self.pending_loads > 0
+                })
+    }
+
     /// One clock cycle.
+    #[inline]
     pub fn tick(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
-        // Provably idle: quiet (on a timer, at a join waiting for loads, or done) with nothing
-        // at its inputs — the cycle would change nothing but the counter `skip` advances.
-        if self.quiet(now)
-            && io.results.is_empty()
+        // Provably idle (`idle_now`) with nothing at its inputs: the cycle would change
+        // nothing but the counters `skip` advances.
+        if io.results.is_empty()
             && io.remote_results.is_empty()
             && io.arrivals.is_empty()
+            && self.idle_now(now)
         {
             self.skip(1);
             return;
         }
+        self.tick_active(now, io, cells);
+    }
+
+    /// A cycle with something to do (or to check).
+    #[inline(never)]
+    fn tick_active(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
         self.stats.state_cycles.add(self.state, 1);
         let me = UnitId::Ctu(self.p.cluster as usize, self.p.local as usize);
         let mut busy = false;

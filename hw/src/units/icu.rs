@@ -1,8 +1,15 @@
 //! The intersection computation unit (ICU): an S-stage pipeline over the datapath's stages —
 //! translate, shear, edges, interpolate, D divider stages, result — one job in per cycle
-//! unless stalled. Each stage register holds the job and that stage's intermediate values
-//! (visible in the waveform). The whole pipeline stalls while the result at its end cannot
-//! leave (its CTU's result link is full): back-pressure, never a lost result.
+//! unless stalled. The whole pipeline stalls while the result at its end cannot leave (its
+//! CTU's result link is full): back-pressure, never a lost result.
+//!
+//! The datapath is a pure function of (ray, patch), so the model evaluates a job's stages
+//! when it enters and carries the result down the pipeline with the job (the stage
+//! registers hold the job, its result and the divider's exception flags): timing, order,
+//! stalls and every counter are those of the staged pipeline, at the cost of one
+//! `intersect` per job — the same work as the untimed model. The exceptions the divider
+//! raises are counted when the job passes the divider, as the staged hardware counts them.
+//! [`Icu::stage`] rebuilds any stage's intermediate values for inspection.
 
 use crate::config::Formats;
 use crate::datapath::record::{PatchRecord, RayRecord};
@@ -72,19 +79,14 @@ pub struct IcuStats {
     pub hits: u64,
 }
 
-/// One stage register as the model stores it: the job and a field for every stage's output.
-/// Stage k writes only its own field (the next stage's input), so a pipeline advance writes a
-/// few words per register instead of moving a whole [`StageValue`]; which fields are
-/// meaningful follows from the register's logical stage (see [`Icu::stage`]).
+/// One stage register as the model stores it: the job, its result (computed at entry, see
+/// the module note) and the exceptions its divide raises, counted when it passes the divider.
 #[derive(Clone, Copy, Debug, Default)]
 struct Reg {
     valid: bool,
     job: Job,
-    translated: Translated,
-    sheared: RaySpace,
-    edges: Edges,
-    interpolated: Interpolated,
     t: Option<i64>,
+    divide_exceptions: Exceptions,
 }
 
 /// The ICU. The stage registers sit in a ring: logical stage k is slot (base + k) mod S, so a
@@ -117,17 +119,30 @@ impl Icu {
     }
 
     /// Stage `k`'s register (0 = translate, depth − 1 = result), as the value that stage
-    /// holds.
-    pub fn stage(&self, k: usize) -> Option<StageReg> {
+    /// holds: its intermediate values rebuilt from the job's records (the datapath is a pure
+    /// function of them; the model itself carries only the result).
+    pub fn stage(
+        &self,
+        k: usize,
+        rays: &[RayRecord],
+        patches: &[PatchRecord],
+        f: &Formats,
+    ) -> Option<StageReg> {
         let n = self.slots.len();
         let r = self.reg(k)?;
+        let ray = &rays[r.job.ray as usize];
+        let mut exc = Exceptions::default();
+        let translated = datapath::translate(ray, &patches[r.job.patch as usize], f, &mut exc);
+        let sheared = datapath::shear(ray, &translated, f);
+        let edges = datapath::edges(&sheared);
+        let interpolated = datapath::interpolate(&sheared, &edges);
         let value = match k {
-            0 => StageValue::Translated(r.translated),
-            1 => StageValue::Sheared(r.sheared),
-            2 => StageValue::Edged(r.sheared, r.edges),
+            0 => StageValue::Translated(translated),
+            1 => StageValue::Sheared(sheared),
+            2 => StageValue::Edged(sheared, edges),
             k if k + 1 == n => StageValue::Result(r.t),
-            3 => StageValue::Interpolated(r.interpolated),
-            _ => StageValue::Dividing(r.interpolated),
+            3 => StageValue::Interpolated(interpolated),
+            _ => StageValue::Dividing(interpolated),
         };
         Some(StageReg { job: r.job, value })
     }
@@ -162,30 +177,27 @@ impl Icu {
         self.stats.stage_cycles += n * self.slots.len() as u64;
     }
 
-    /// Turns stage `k`'s value into stage `k + 1`'s, in place: each stage writes only its
-    /// own output field. The divider's stages carry the fraction; the quotient appears in the
-    /// last stage (`last`).
-    #[inline]
-    fn advance(
-        last: usize,
-        k: usize,
-        r: &mut Reg,
-        ray: &RayRecord,
-        f: &Formats,
-        exc: &mut Exceptions,
-    ) {
-        match k {
-            0 => r.sheared = datapath::shear(ray, &r.translated, f),
-            1 => r.edges = datapath::edges(&r.sheared),
-            2 => r.interpolated = datapath::interpolate(&r.sheared, &r.edges),
-            k if k + 1 == last => r.t = datapath::divide(&r.interpolated, f, exc),
-            _ => {}
-        }
-    }
-
     /// One clock cycle: the result at the end leaves (if its CTU's result link is ready),
     /// every stage advances, and a job enters from the ray buffer.
+    #[inline]
     pub fn tick(
+        &mut self,
+        io: &mut IcuPorts,
+        rays: &[RayRecord],
+        patches: &[PatchRecord],
+        f: &Formats,
+    ) {
+        self.stats.stage_cycles += self.slots.len() as u64;
+        if self.count == 0 && io.input.peek().is_none() {
+            self.stats.idle_cycles += 1;
+            return;
+        }
+        self.tick_active(io, rays, patches, f);
+    }
+
+    /// A cycle with a job inside or waiting at the input.
+    #[inline(never)]
+    fn tick_active(
         &mut self,
         io: &mut IcuPorts,
         rays: &[RayRecord],
@@ -201,12 +213,7 @@ impl Icu {
         let cluster = *cluster;
         let me = UnitId::Icu(cluster as usize);
         let n = self.slots.len();
-        self.stats.stage_cycles += n as u64;
-        if self.count == 0 && input.peek().is_none() {
-            self.stats.idle_cycles += 1;
-            return;
-        }
-        let last = (self.base + n - 1) % n;
+        let last = if self.base == 0 { n - 1 } else { self.base - 1 };
         if self.slots[last].valid {
             let reg = &self.slots[last];
             // A job from another cluster (dynamic balancing) sends its result home.
@@ -248,33 +255,34 @@ impl Icu {
             self.slots[last].valid = false;
             self.count -= 1;
         }
-        // Each register computes the next stage's value in place; then the ring turns so
-        // that logical stage k becomes k + 1 and the emptied last slot becomes stage 0.
-        let mut exc = self.exceptions;
-        let mut i = self.base;
-        for k in 0..n - 1 {
-            let r = &mut self.slots[i];
-            if r.valid {
-                Self::advance(n - 1, k, r, &rays[r.job.ray as usize], f, &mut exc);
-            }
-            i = if i + 1 == n { 0 } else { i + 1 };
+        // The ring turns: logical stage k becomes k + 1 and the emptied last slot becomes
+        // stage 0. The job moving from the last divider stage into the result stage is the
+        // one whose divide completes now: its exceptions count in this cycle.
+        let into_result = if last == 0 { n - 1 } else { last - 1 };
+        if self.slots[into_result].valid {
+            self.exceptions
+                .add(&self.slots[into_result].divide_exceptions);
         }
         self.base = last;
         if input.peek().is_some() {
             let job = input.pop(me);
-            let r = &mut self.slots[self.base];
-            r.translated = datapath::translate(
-                &rays[job.ray as usize],
-                &patches[job.patch as usize],
-                f,
-                &mut exc,
-            );
-            r.job = job;
-            r.valid = true;
+            let ray = &rays[job.ray as usize];
+            let translated =
+                datapath::translate(ray, &patches[job.patch as usize], f, &mut self.exceptions);
+            let sheared = datapath::shear(ray, &translated, f);
+            let edges = datapath::edges(&sheared);
+            let interpolated = datapath::interpolate(&sheared, &edges);
+            let mut divide_exceptions = Exceptions::default();
+            let t = datapath::divide(&interpolated, f, &mut divide_exceptions);
+            self.slots[self.base] = Reg {
+                valid: true,
+                job,
+                t,
+                divide_exceptions,
+            };
             self.count += 1;
             self.stats.jobs_in += 1;
         }
-        self.exceptions = exc;
         if valid > 0 || self.slots[self.base].valid {
             self.stats.busy_cycles += 1;
             self.stats.busy_stage_cycles += valid;
