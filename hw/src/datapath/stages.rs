@@ -257,6 +257,24 @@ pub fn intersect(
     divide(&q, f, exc).map(|t| FixedHit { patch: p.id, t })
 }
 
+/// All stages for one job, as the ICU evaluates it on entry: t raw (or no hit), with the
+/// exceptions of translate counted in `at_translate` and those of divide in `at_divide`
+/// (the pipeline counts each when the job passes that stage).
+#[inline]
+pub fn intersect_t(
+    r: &RayRecord,
+    p: &PatchRecord,
+    f: &Formats,
+    at_translate: &mut Exceptions,
+    at_divide: &mut Exceptions,
+) -> Option<i64> {
+    let t = translate(r, p, f, at_translate);
+    let s = shear(r, &t, f);
+    let e = edges(&s);
+    let q = interpolate(&s, &e);
+    divide(&q, f, at_divide)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

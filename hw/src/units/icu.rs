@@ -266,14 +266,14 @@ impl Icu {
         self.base = last;
         if input.peek().is_some() {
             let job = input.pop(me);
-            let ray = &rays[job.ray as usize];
-            let translated =
-                datapath::translate(ray, &patches[job.patch as usize], f, &mut self.exceptions);
-            let sheared = datapath::shear(ray, &translated, f);
-            let edges = datapath::edges(&sheared);
-            let interpolated = datapath::interpolate(&sheared, &edges);
             let mut divide_exceptions = Exceptions::default();
-            let t = datapath::divide(&interpolated, f, &mut divide_exceptions);
+            let t = datapath::intersect_t(
+                &rays[job.ray as usize],
+                &patches[job.patch as usize],
+                f,
+                &mut self.exceptions,
+                &mut divide_exceptions,
+            );
             self.slots[self.base] = Reg {
                 valid: true,
                 job,

@@ -157,8 +157,8 @@ impl Memory {
             ArbiterPolicy::RoundRobin => self.next,
             ArbiterPolicy::FixedPriority => 0,
         };
-        for k in 0..n {
-            let i = (start + k) % n;
+        let mut i = start;
+        for _ in 0..n {
             if requests[i].peek().is_some() {
                 let r = requests[i].pop(UnitId::Memory);
                 self.stats.grants += 1;
@@ -177,6 +177,7 @@ impl Memory {
                 self.next = (i + 1) % n;
                 return;
             }
+            i = if i + 1 == n { 0 } else { i + 1 };
         }
     }
 }
