@@ -397,4 +397,94 @@ mod tests {
         assert!(results[0].is_empty() && results[0].transfers == 0);
         assert_eq!(icu.stats.remote_results_out, 1);
     }
+
+    /// Ticks `icu` with one job at the input on cycle 0 and its result link always ready;
+    /// returns the exceptions after each of `cycles` cycles and the result.
+    fn one_job(
+        icu: &mut Icu,
+        rays: &[RayRecord],
+        patches: &[PatchRecord],
+        f: &Formats,
+        cycles: usize,
+        mut at: impl FnMut(&Icu, usize),
+    ) -> (Vec<Exceptions>, Option<JobResult>) {
+        let mut input: Link<Job> = Link::new(2);
+        let mut results: Vec<Link<JobResult>> = vec![Link::new(2)];
+        let mut remote: Link<RemoteResult> = Link::new(2);
+        let job = Job {
+            ray: 0,
+            slot: 0,
+            patch: 0,
+            ctu: 0,
+            owner: 0,
+        };
+        input.push(UnitId::RayBuffer(0), job);
+        input.commit();
+        let (mut seen, mut out) = (vec![], None);
+        for cycle in 0..cycles {
+            let mut io = IcuPorts {
+                cluster: 0,
+                input: &mut input,
+                results: &mut results,
+                remote: &mut remote,
+            };
+            icu.tick(&mut io, rays, patches, f);
+            input.commit();
+            results[0].commit();
+            at(icu, cycle);
+            seen.push(icu.exceptions);
+            if results[0].peek().is_some() {
+                out = Some(results[0].pop(UnitId::Ctu(0, 0)));
+                results[0].commit();
+            }
+        }
+        (seen, out)
+    }
+
+    #[test]
+    fn a_divide_exception_counts_when_the_job_passes_the_divider_not_on_entry() {
+        let (mut rays, patches, f) = records();
+        // A direction of 1/128: the plane x = 512 lies at t ≈ 15, beyond t's format.
+        rays[0] = RayRecord::new(0, [32, 128, 128], [32, 0, 0], &f);
+        let mut icu = Icu::new(4);
+        let n = icu.depth();
+        let (seen, out) = one_job(&mut icu, &rays, &patches, &f, n + 2, |_, _| {});
+        let first = seen.iter().position(|e| e.t_saturated == 1);
+        // On cycle k the job sits in stage k; it enters the result stage on cycle n − 1.
+        assert_eq!(first, Some(n - 1), "{seen:?}");
+        assert_eq!(seen.last().unwrap().t_saturated, 1, "counted once");
+        assert_eq!(out.expect("the result left").t, None);
+    }
+
+    #[test]
+    fn every_stage_shows_the_datapath_values_of_its_job() {
+        let (rays, patches, f) = records();
+        let mut icu = Icu::new(4);
+        let n = icu.depth();
+        let mut exc = Exceptions::default();
+        let tr = datapath::translate(&rays[0], &patches[0], &f, &mut exc);
+        let sh = datapath::shear(&rays[0], &tr, &f);
+        let ed = datapath::edges(&sh);
+        let ip = datapath::interpolate(&sh, &ed);
+        let hit = datapath::intersect(&rays[0], &patches[0], &f, &mut exc).map(|h| h.t);
+        assert!(hit.is_some(), "the ray crosses the quad");
+        let mut shown = vec![];
+        let (_, out) = one_job(&mut icu, &rays, &patches, &f, n + 1, |icu, k| {
+            if k < n {
+                let st = icu.stage(k, &rays, &patches, &f).expect("the job is in stage k");
+                assert!((0..n).all(|j| j == k || icu.stage(j, &rays, &patches, &f).is_none()));
+                shown.push(st.value);
+            }
+        });
+        let mut want = vec![
+            StageValue::Translated(tr),
+            StageValue::Sheared(sh),
+            StageValue::Edged(sh, ed),
+            StageValue::Interpolated(ip),
+        ];
+        want.extend((4..n - 1).map(|_| StageValue::Dividing(ip)));
+        want.push(StageValue::Result(hit));
+        assert_eq!(shown, want);
+        assert_eq!(out.expect("the result left").t, hit);
+    }
 }
