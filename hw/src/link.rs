@@ -62,7 +62,7 @@ pub struct Link<T> {
 }
 
 /// Rule 7: records `by` as the link's `end` on first use, else checks it is the same unit.
-#[inline]
+#[inline(always)]
 fn one_end(end: &mut Option<UnitId>, by: UnitId, side: &str) {
     match *end {
         Some(u) => assert!(
@@ -117,13 +117,13 @@ impl<T: Clone> Link<T> {
     }
 
     /// Registered ready: room at the last edge (rule 1).
-    #[inline]
+    #[inline(always)]
     pub fn can_push(&self) -> bool {
         self.q.len() < self.capacity && self.staged_push < self.ports
     }
 
     /// Stages a push by `by` (rules 1 and 7). Panics if the rules were broken — a model bug.
-    #[inline]
+    #[inline(always)]
     pub fn push(&mut self, by: UnitId, x: T) {
         one_end(&mut self.producer, by, "producer");
         assert!(
@@ -136,7 +136,7 @@ impl<T: Clone> Link<T> {
     }
 
     /// Registered valid and data: the front at the last edge (rule 3).
-    #[inline]
+    #[inline(always)]
     pub fn peek(&self) -> Option<&T> {
         if self.staged_pop || self.q.len() == self.staged_push {
             None
@@ -146,7 +146,7 @@ impl<T: Clone> Link<T> {
     }
 
     /// Stages popping the front by `by` (rules 3 and 7).
-    #[inline]
+    #[inline(always)]
     pub fn pop(&mut self, by: UnitId) -> T {
         one_end(&mut self.consumer, by, "consumer");
         assert!(!self.staged_pop, "two pops in a cycle");
@@ -168,7 +168,7 @@ impl<T: Clone> Link<T> {
     }
 
     /// The clock edge (rule 4). An untouched link has nothing to do.
-    #[inline]
+    #[inline(always)]
     pub fn commit(&mut self) {
         if self.touched {
             self.commit_staged();
@@ -192,25 +192,25 @@ impl<T: Clone> Link<T> {
     }
 
     /// Items held at the last edge.
-    #[inline]
+    #[inline(always)]
     pub fn len(&self) -> usize {
         self.q.len() - self.staged_push
     }
 
     /// True when empty at the last edge.
-    #[inline]
+    #[inline(always)]
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
     /// Registered valid (an item is at the front).
-    #[inline]
+    #[inline(always)]
     pub fn valid(&self) -> bool {
         !self.is_empty()
     }
 
     /// Registered ready (room for one more).
-    #[inline]
+    #[inline(always)]
     pub fn ready(&self) -> bool {
         self.len() < self.capacity
     }
