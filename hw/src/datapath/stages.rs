@@ -98,7 +98,7 @@ impl FixedHit {
 }
 
 /// Stage 1, translate: p_i = v_i − o (exact).
-#[inline]
+#[inline(always)]
 pub fn translate(r: &RayRecord, p: &PatchRecord, f: &Formats, exc: &mut Exceptions) -> Translated {
     let mut t = Translated {
         n: p.n_verts,
@@ -117,7 +117,7 @@ pub fn translate(r: &RayRecord, p: &PatchRecord, f: &Formats, exc: &mut Exceptio
 }
 
 /// Stage 2, shear into ray space; rounding point A.
-#[inline]
+#[inline(always)]
 pub fn shear(r: &RayRecord, t: &Translated, f: &Formats) -> RaySpace {
     let fs = f.shear.frac_bits;
     let (kx, ky, kz) = (r.kx as usize, r.ky as usize, r.kz as usize);
@@ -143,7 +143,7 @@ fn top_left(dx: i64, dy: i64) -> bool {
 
 /// Stage 3, edge functions (exact) and the inside test: all of one sign, exact zeros kept
 /// only on top-left edges, an edge that projects to a point bounding nothing.
-#[inline]
+#[inline(always)]
 pub fn edges(s: &RaySpace) -> Edges {
     let n = s.n as usize;
     let cross = |a: usize, b: usize| -> i128 {
@@ -181,7 +181,7 @@ pub fn edges(s: &RaySpace) -> Edges {
 /// Stage 4, interpolate: the barycentric weights of the triangle holding the ray (a quad
 /// picks (v0,v1,v2) or (v0,v2,v3) by the sign of its diagonal) against the vertices' z —
 /// the scaled plane distance num/den, exact.
-#[inline]
+#[inline(always)]
 pub fn interpolate(s: &RaySpace, e: &Edges) -> Interpolated {
     if !e.inside {
         return Interpolated::default();
@@ -211,7 +211,7 @@ pub fn interpolate(s: &RaySpace, e: &Edges) -> Interpolated {
 /// through the origin (t = 0) is hit: the host starts a ray off its source's plane
 /// (`ray_from`), so what lies there is a patch stacked on the source within an LSB — the
 /// back of cornell's light, under the ceiling — which the float tracer meets too.
-#[inline]
+#[inline(always)]
 pub fn divide(q: &Interpolated, f: &Formats, exc: &mut Exceptions) -> Option<i64> {
     if !q.valid || q.num < 0 {
         return None;
