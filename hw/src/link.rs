@@ -24,6 +24,7 @@
 //! Because every read sees committed state and every write is staged, the order in which
 //! producer and consumer are ticked within a cycle cannot change any result.
 
+use std::cell::Cell;
 use std::collections::VecDeque;
 
 /// A unit of the machine: one end of a link, and what the machine ticks.
@@ -59,6 +60,9 @@ pub struct Link<T> {
     consumer: Option<UnitId>,
     /// Items transferred (popped) since the start.
     pub transfers: u64,
+    /// The registered state changed at an edge since the waveform last looked
+    /// ([`Link::take_changed`]); true at the start.
+    changed: Cell<bool>,
 }
 
 /// Rule 7: records `by` as the link's `end` on first use, else checks it is the same unit.
@@ -95,6 +99,7 @@ impl<T: Clone> Link<T> {
             producer: None,
             consumer: None,
             transfers: 0,
+            changed: Cell::new(true),
         }
     }
 
@@ -189,6 +194,15 @@ impl<T: Clone> Link<T> {
         }
         self.staged_push = 0;
         self.touched = false;
+        *self.changed.get_mut() = true;
+    }
+
+    /// True when the registered state (valid, ready, occupancy, transfers) may have changed
+    /// since the last call — a touched edge happened — and clears it: the waveform's walk
+    /// reads a link's signals only then. Registered state changes only at a touched edge.
+    #[inline(always)]
+    pub fn take_changed(&self) -> bool {
+        self.changed.replace(false)
     }
 
     /// Items held at the last edge.
@@ -322,5 +336,24 @@ mod tests {
         assert_eq!(l.take_back(P, 3), vec![1, 2, 3]);
         l.commit();
         assert!(l.is_empty());
+    }
+
+    #[test]
+    fn the_change_flag_is_raised_by_a_touched_edge_only() {
+        let mut l: Link<u32> = Link::new(2);
+        assert!(l.take_changed(), "a new link has never been looked at");
+        assert!(!l.take_changed());
+        l.commit();
+        assert!(!l.take_changed(), "an untouched edge changes nothing");
+        l.push(UnitId::Memory, 7);
+        assert!(!l.take_changed(), "a staged push is not registered yet");
+        let before = (l.valid(), l.ready(), l.len(), l.transfers);
+        l.commit();
+        assert!(l.take_changed());
+        assert_ne!((l.valid(), l.ready(), l.len(), l.transfers), before);
+        l.pop(UnitId::Balancer);
+        l.commit();
+        assert!(l.take_changed());
+        assert!(!l.take_changed());
     }
 }
