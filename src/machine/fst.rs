@@ -1,0 +1,172 @@
+//! FST output: the value-change half of the waveform writer ([`super::vcd::VcdWriter`]) for a
+//! `.fst` path, on the patched `fst-writer` crate (vendor/fst-writer).
+//!
+//! Each sample's flat value array is compared with the previous one eight values at a time;
+//! each changed declared value goes to the crate as an integer (a text, an FSM state, as the
+//! bits of its ASCII characters). The crate records these calls in blocks for a writer thread
+//! of its own, which encodes them into per-signal change chains, compresses each section with
+//! zlib and writes it — in order, so the file's bytes depend neither on the timing nor on the
+//! thread. Sections are cut every [`FST_FLUSH_BYTES`] of changes so memory stays bounded.
+
+use fst_writer::{FstBodyWriter, FstCompression, FstSignalId};
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+
+/// Cut a section (compressed on its own) past this many bytes of encoded value changes.
+const FST_FLUSH_BYTES: usize = 32 << 20;
+
+/// How the sections are compressed: zlib level 1 — the fastest level, which already makes
+/// the FST ~13× smaller than the VCD (BENCHMARKS.md, issue 13).
+const FST_COMPRESSION: FstCompression = FstCompression::Zlib(1);
+
+/// One probe signal as the FST body writes it.
+#[derive(Clone, Copy)]
+pub(crate) struct FstHandle {
+    /// Its FST signal, when declared (inside the scope filter).
+    pub id: Option<FstSignalId>,
+    /// A text (FSM state): written as the bits of its ASCII characters.
+    pub text: bool,
+}
+
+/// The FST's value changes, after the header.
+pub(crate) struct FstBody {
+    w: FstBodyWriter<BufWriter<File>>,
+    /// Per probe signal (the sample's positions).
+    handles: Vec<FstHandle>,
+    /// Per probe signal, a text's values as FST bits: one per name, then "-" (any other).
+    texts: Vec<Vec<Vec<u8>>>,
+    /// Time changes written (a section may be cut every 256).
+    stamps: u64,
+}
+
+/// An FST error as an I/O error (the writer reports every failure as "writing: …").
+pub(crate) fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
+    match e {
+        fst_writer::FstWriteError::Io(e) => e,
+        e => io::Error::other(e.to_string()),
+    }
+}
+
+impl FstBody {
+    /// The body writer `w` (the header written), the signals' handles and texts (by probe
+    /// position); starts the writer thread.
+    pub(crate) fn new(
+        mut w: FstBodyWriter<BufWriter<File>>,
+        handles: Vec<FstHandle>,
+        texts: Vec<Vec<Vec<u8>>>,
+    ) -> io::Result<Self> {
+        w.set_compression(FST_COMPRESSION);
+        w.write_in_background().map_err(fst_err)?;
+        Ok(FstBody {
+            w,
+            handles,
+            texts,
+            stamps: 0,
+        })
+    }
+
+    /// One value change of probe signal `i` (a declared one).
+    #[inline(always)]
+    fn value(&mut self, i: usize, id: FstSignalId, v: u64) -> io::Result<()> {
+        if self.handles[i].text {
+            return self.text(i, id, v);
+        }
+        self.w.signal_change_u64(id, v).map_err(fst_err)
+    }
+
+    /// A text's change: the bits of its ASCII characters.
+    #[inline(never)]
+    fn text(&mut self, i: usize, id: FstSignalId, v: u64) -> io::Result<()> {
+        let lines = &self.texts[i];
+        let line = &lines[(v as usize).min(lines.len() - 1)];
+        self.w.signal_change(id, line).map_err(fst_err)
+    }
+
+    /// Time `t` and every declared value of `values` (in `order`): FST has no `$dumpvars`,
+    /// the first time's values are the initial state.
+    pub(crate) fn dump_all(&mut self, t: u64, order: &[usize], values: &[u64]) -> io::Result<()> {
+        self.w.time_change(t).map_err(fst_err)?;
+        self.stamps += 1;
+        for &i in order {
+            if let Some(id) = self.handles[i].id {
+                self.value(i, id, values[i])?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Compares `values` with `prev` (taking them), and writes time `t` and the changed
+    /// declared values. Returns true when it wrote something (a time change).
+    pub(crate) fn write_changes(
+        &mut self,
+        t: u64,
+        prev: &mut [u64],
+        values: &[u64],
+    ) -> io::Result<bool> {
+        let mut stamped = false;
+        let n = values.len().min(prev.len());
+        let whole = n - n % 8;
+        // Eight values at a time (fixed-size arrays: one vector compare): a mask of the
+        // changed ones, then only those.
+        for base in (0..whole).step_by(8) {
+            let p: &[u64; 8] = prev[base..base + 8].try_into().expect("8");
+            let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
+            let mut m = 0u32;
+            for k in 0..8 {
+                m |= ((p[k] != v[k]) as u32) << k;
+            }
+            if m != 0 {
+                self.changed(t, base, m, prev, values, &mut stamped)?;
+            }
+        }
+        let mut m = 0u32;
+        for k in whole..n {
+            m |= ((prev[k] != values[k]) as u32) << (k - whole);
+        }
+        if m != 0 {
+            self.changed(t, whole, m, prev, values, &mut stamped)?;
+        }
+        if stamped && self.stamps.is_multiple_of(256) && self.w.size() > FST_FLUSH_BYTES {
+            self.w.flush().map_err(fst_err)?;
+        }
+        Ok(stamped)
+    }
+
+    /// Takes the values at `base + k` for each bit `k` of the mask `m` into `prev`, and
+    /// writes the declared ones (time `t` first, once a sample: `stamped`).
+    #[inline(always)]
+    fn changed(
+        &mut self,
+        t: u64,
+        base: usize,
+        mut m: u32,
+        prev: &mut [u64],
+        values: &[u64],
+        stamped: &mut bool,
+    ) -> io::Result<()> {
+        while m != 0 {
+            let i = base + m.trailing_zeros() as usize;
+            m &= m - 1;
+            let v = values[i];
+            prev[i] = v;
+            if let Some(id) = self.handles[i].id {
+                if !*stamped {
+                    *stamped = true;
+                    self.stamps += 1;
+                    self.w.time_change(t).map_err(fst_err)?;
+                }
+                self.value(i, id, v)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Writes the last section and the header's totals; returns the file's size.
+    pub(crate) fn finish(self) -> io::Result<u64> {
+        let mut w = self.w.finish().map_err(fst_err)?;
+        w.flush()?;
+        let f = w.get_ref();
+        crate::output::sync_file(f)?;
+        f.metadata().map(|m| m.len())
+    }
+}
