@@ -31,10 +31,17 @@ pub(crate) struct FstHandle {
 /// The FST's value changes, after the header.
 pub(crate) struct FstBody {
     w: FstBodyWriter<BufWriter<File>>,
-    /// Per probe signal (the sample's positions).
-    handles: Vec<FstHandle>,
+    /// Per probe signal (the sample's positions), its FST signal when it is a declared
+    /// bit vector (written as an integer).
+    ints: Vec<Option<FstSignalId>>,
+    /// Per probe signal, its FST signal when it is a declared text.
+    texts: Vec<Option<FstSignalId>>,
     /// Per probe signal, a text's values as FST bits: one per name, then "-" (any other).
-    texts: Vec<Vec<Vec<u8>>>,
+    text_bits: Vec<Vec<Vec<u8>>>,
+    /// One sample's integer changes, handed over together (room for every signal).
+    batch: Vec<(FstSignalId, u64)>,
+    /// One sample's text changes (probe position, value).
+    text_batch: Vec<(usize, u64)>,
     /// Time changes written (a section may be cut every 256).
     stamps: u64,
 }
@@ -53,33 +60,20 @@ impl FstBody {
     pub(crate) fn new(
         mut w: FstBodyWriter<BufWriter<File>>,
         handles: Vec<FstHandle>,
-        texts: Vec<Vec<Vec<u8>>>,
+        text_bits: Vec<Vec<Vec<u8>>>,
     ) -> io::Result<Self> {
         w.set_compression(FST_COMPRESSION);
         w.write_in_background().map_err(fst_err)?;
+        let n = handles.len();
         Ok(FstBody {
             w,
-            handles,
-            texts,
+            ints: handles.iter().map(|h| h.id.filter(|_| !h.text)).collect(),
+            texts: handles.iter().map(|h| h.id.filter(|_| h.text)).collect(),
+            text_bits,
+            batch: Vec::with_capacity(n),
+            text_batch: Vec::with_capacity(n),
             stamps: 0,
         })
-    }
-
-    /// One value change of probe signal `i` (a declared one).
-    #[inline(always)]
-    fn value(&mut self, i: usize, id: FstSignalId, v: u64) -> io::Result<()> {
-        if self.handles[i].text {
-            return self.text(i, id, v);
-        }
-        self.w.signal_change_u64(id, v).map_err(fst_err)
-    }
-
-    /// A text's change: the bits of its ASCII characters.
-    #[inline(never)]
-    fn text(&mut self, i: usize, id: FstSignalId, v: u64) -> io::Result<()> {
-        let lines = &self.texts[i];
-        let line = &lines[(v as usize).min(lines.len() - 1)];
-        self.w.signal_change(id, line).map_err(fst_err)
     }
 
     /// Time `t` and every declared value of `values` (in `order`): FST has no `$dumpvars`,
@@ -88,10 +82,32 @@ impl FstBody {
         self.w.time_change(t).map_err(fst_err)?;
         self.stamps += 1;
         for &i in order {
-            if let Some(id) = self.handles[i].id {
-                self.value(i, id, values[i])?;
-            }
+            self.take(i, values[i]);
         }
+        self.write_batch()
+    }
+
+    /// Queues probe signal `i`'s value `v` when declared.
+    #[inline(always)]
+    fn take(&mut self, i: usize, v: u64) {
+        if let Some(id) = self.ints[i] {
+            self.batch.push((id, v));
+        } else if self.texts[i].is_some() {
+            self.text_batch.push((i, v));
+        }
+    }
+
+    /// Writes the queued changes (at the current time).
+    fn write_batch(&mut self) -> io::Result<()> {
+        self.w.signal_changes_u64(&self.batch).map_err(fst_err)?;
+        self.batch.clear();
+        for &(i, v) in &self.text_batch {
+            let id = self.texts[i].expect("queued texts are declared");
+            let lines = &self.text_bits[i];
+            let line = &lines[(v as usize).min(lines.len() - 1)];
+            self.w.signal_change(id, line).map_err(fst_err)?;
+        }
+        self.text_batch.clear();
         Ok(())
     }
 
@@ -103,62 +119,42 @@ impl FstBody {
         prev: &mut [u64],
         values: &[u64],
     ) -> io::Result<bool> {
-        let mut stamped = false;
         let n = values.len().min(prev.len());
         let whole = n - n % 8;
-        // Eight values at a time (fixed-size arrays: one vector compare): a mask of the
-        // changed ones, then only those.
+        // Eight values at a time: a mask of the changed ones, then only those.
         for base in (0..whole).step_by(8) {
-            let p: &[u64; 8] = prev[base..base + 8].try_into().expect("8");
+            let p: &mut [u64; 8] = (&mut prev[base..base + 8]).try_into().expect("8");
             let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
             let mut m = 0u32;
             for k in 0..8 {
                 m |= ((p[k] != v[k]) as u32) << k;
             }
-            if m != 0 {
-                self.changed(t, base, m, prev, values, &mut stamped)?;
+            if m == 0 {
+                continue;
+            }
+            *p = *v;
+            while m != 0 {
+                let k = m.trailing_zeros() as usize;
+                m &= m - 1;
+                self.take(base + k, v[k]);
             }
         }
-        let mut m = 0u32;
-        for k in whole..n {
-            m |= ((prev[k] != values[k]) as u32) << (k - whole);
+        for i in whole..n {
+            if prev[i] != values[i] {
+                prev[i] = values[i];
+                self.take(i, values[i]);
+            }
         }
-        if m != 0 {
-            self.changed(t, whole, m, prev, values, &mut stamped)?;
+        if self.batch.is_empty() && self.text_batch.is_empty() {
+            return Ok(false);
         }
-        if stamped && self.stamps.is_multiple_of(256) && self.w.size() > FST_FLUSH_BYTES {
+        self.w.time_change(t).map_err(fst_err)?;
+        self.stamps += 1;
+        self.write_batch()?;
+        if self.stamps.is_multiple_of(256) && self.w.size() > FST_FLUSH_BYTES {
             self.w.flush().map_err(fst_err)?;
         }
-        Ok(stamped)
-    }
-
-    /// Takes the values at `base + k` for each bit `k` of the mask `m` into `prev`, and
-    /// writes the declared ones (time `t` first, once a sample: `stamped`).
-    #[inline(always)]
-    fn changed(
-        &mut self,
-        t: u64,
-        base: usize,
-        mut m: u32,
-        prev: &mut [u64],
-        values: &[u64],
-        stamped: &mut bool,
-    ) -> io::Result<()> {
-        while m != 0 {
-            let i = base + m.trailing_zeros() as usize;
-            m &= m - 1;
-            let v = values[i];
-            prev[i] = v;
-            if let Some(id) = self.handles[i].id {
-                if !*stamped {
-                    *stamped = true;
-                    self.stamps += 1;
-                    self.w.time_change(t).map_err(fst_err)?;
-                }
-                self.value(i, id, v)?;
-            }
-        }
-        Ok(())
+        Ok(true)
     }
 
     /// Writes the last section and the header's totals; returns the file's size.

@@ -483,6 +483,10 @@ fn flush_zeros(output: &mut impl Write, zeros: &mut u32) -> Result<()> {
 /// For any signal change streams smaller than this size, we won't even attempt LZ4 compression
 const MIN_SIZE_TO_ATTEMPT_COMPRESSION: usize = 32;
 
+/// The same for zlib, whose per-chain compressor reset costs ~250 k instructions (miniz_oxide):
+/// chains this short gain a few bytes at most.
+const MIN_SIZE_TO_ATTEMPT_ZLIB: usize = 256;
+
 fn write_value_changes(
     output: &mut (impl Write + Seek),
     section: &Section,
@@ -511,7 +515,11 @@ fn write_value_changes(
             *memory_required += data.len() as u64;
 
             // TODO: dedup with hashmap
-            let compressed = if data.len() < MIN_SIZE_TO_ATTEMPT_COMPRESSION {
+            let min = match section.compression {
+                FstCompression::Lz4 => MIN_SIZE_TO_ATTEMPT_COMPRESSION,
+                FstCompression::Zlib(_) => MIN_SIZE_TO_ATTEMPT_ZLIB,
+            };
+            let compressed = if data.len() < min {
                 // it is better not to compress the data
                 None
             } else {

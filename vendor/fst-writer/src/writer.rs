@@ -172,8 +172,8 @@ struct Block {
     ascii: Vec<u8>,
 }
 
-/// Calls per block (16 bytes each).
-const BLOCK_RECS: usize = 1 << 16;
+/// Calls per block (16 bytes each: 64 KiB, so the blocks in flight stay in cache).
+const BLOCK_RECS: usize = 1 << 12;
 
 impl Block {
     fn new() -> Self {
@@ -300,6 +300,40 @@ impl<W: std::io::Write + std::io::Seek> FstBodyWriter<W> {
                     tag: signal_id.to_index(),
                     value,
                 })
+            }
+            Sink::Gone => unreachable!("the sink is always set between calls"),
+        }
+    }
+
+    /// [`signal_change_u64`](Self::signal_change_u64) for each of `changes` in turn (one
+    /// call for a time step's changes).
+    pub fn signal_changes_u64(&mut self, changes: &[(FstSignalId, u64)]) -> Result<()> {
+        match &mut self.sink {
+            Sink::Direct(d) => {
+                for &(id, value) in changes {
+                    d.buffer.signal_change_u64(id, value)?;
+                }
+                Ok(())
+            }
+            Sink::Thread(r) => {
+                // check them all, then copy them all (two tight loops)
+                let mut size = 0;
+                for &(id, _) in changes {
+                    match r.u64_cost.get(id.to_array_index()) {
+                        Some(&c) if c > 0 => size += c as usize,
+                        _ => return Err(FstWriteError::NotU64(id)),
+                    }
+                }
+                r.size += size;
+                r.block.recs.extend(changes.iter().map(|&(id, value)| Rec {
+                    tag: id.to_index(),
+                    value,
+                }));
+                // a block may pass its size by one time step's changes
+                if r.block.recs.len() >= BLOCK_RECS {
+                    r.send()?;
+                }
+                Ok(())
             }
             Sink::Gone => unreachable!("the sink is always set between calls"),
         }
