@@ -46,6 +46,17 @@ pub(crate) struct FstBody {
     stamps: u64,
 }
 
+/// Bit `k` set when `prev[k] != values[k]`: eight values compared at once (fixed-size arrays,
+/// no bounds checks, no branches).
+#[inline(always)]
+pub(crate) fn changed_mask8(prev: &[u64; 8], values: &[u64; 8]) -> u32 {
+    let mut m = 0u32;
+    for k in 0..8 {
+        m |= ((prev[k] != values[k]) as u32) << k;
+    }
+    m
+}
+
 /// An FST error as an I/O error (the writer reports every failure as "writing: …").
 pub(crate) fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
     match e {
@@ -125,10 +136,7 @@ impl FstBody {
         for base in (0..whole).step_by(8) {
             let p: &mut [u64; 8] = (&mut prev[base..base + 8]).try_into().expect("8");
             let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
-            let mut m = 0u32;
-            for k in 0..8 {
-                m |= ((p[k] != v[k]) as u32) << k;
-            }
+            let mut m = changed_mask8(p, v);
             if m == 0 {
                 continue;
             }
