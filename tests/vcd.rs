@@ -796,27 +796,23 @@ fn changes_of(text: &str) -> BTreeMap<String, Vec<(u64, String)>> {
     out
 }
 
-/// The FST of a run, read back by GTKWave's `fst2vcd` (an independent reader), holds exactly
-/// the VCD's value changes: same scopes and names, same times, same values, FSM states
-/// included.
-#[test]
-fn the_fst_holds_exactly_the_vcds_value_changes() {
-    if std::process::Command::new("fst2vcd")
+/// True when GTKWave's `fst2vcd` runs (.ci/run installs it with gtkwave).
+fn have_fst2vcd() -> bool {
+    let ok = std::process::Command::new("fst2vcd")
         .arg("-h")
         .output()
-        .is_err()
-    {
+        .is_ok();
+    if !ok {
         eprintln!("fst2vcd (GTKWave) is not installed; .ci/run installs it");
-        return;
     }
+    ok
+}
+
+/// The FST of a run with `opts`, read back by GTKWave's `fst2vcd` (an independent reader),
+/// holds exactly the VCD's value changes of the same run: same scopes and names, same times,
+/// same values, FSM states included.
+fn fst_matches_vcd(opts: VcdOptions) {
     let dir = tempfile::tempdir().unwrap();
-    let opts = VcdOptions {
-        window: Window {
-            from: 100,
-            to: 3000,
-        },
-        scope: None,
-    };
     let (_, v, _) = run(dir.path(), "w.vcd", opts.clone());
     let (_, f, _) = run(dir.path(), "w.fst", opts);
     assert_eq!(v.signals, f.signals);
@@ -842,4 +838,49 @@ fn the_fst_holds_exactly_the_vcds_value_changes() {
             .collect();
         assert_eq!(&fst, ch, "{name}");
     }
+}
+
+/// A cycle window: the FST holds exactly the VCD's value changes.
+#[test]
+fn the_fst_holds_exactly_the_vcds_value_changes() {
+    if !have_fst2vcd() {
+        return;
+    }
+    fst_matches_vcd(VcdOptions {
+        window: Window {
+            from: 100,
+            to: 3000,
+        },
+        scope: None,
+    });
+}
+
+/// A cycle window and a scope filter together: the FST holds exactly the VCD's value
+/// changes, of the filtered signals only.
+#[test]
+fn a_windowed_scope_filtered_fst_holds_exactly_the_vcds_value_changes() {
+    if !have_fst2vcd() {
+        return;
+    }
+    fst_matches_vcd(VcdOptions {
+        window: Window {
+            from: 500,
+            to: 2500,
+        },
+        scope: Some(ScopeFilter::new("machine.cluster_1.*")),
+    });
+}
+
+/// The FST (compressed on a writer thread) is byte-identical between two identical runs.
+#[test]
+fn two_runs_give_byte_identical_fsts() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_, a, _) = run(dir.path(), "a.fst", VcdOptions::default());
+    let (_, b, _) = run(dir.path(), "b.fst", VcdOptions::default());
+    assert!(a.bytes > 0);
+    assert_eq!(
+        std::fs::read(&a.path).unwrap(),
+        std::fs::read(&b.path).unwrap(),
+        "FST differs between two identical runs"
+    );
 }

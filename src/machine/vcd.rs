@@ -30,10 +30,11 @@
 //! stays bounded on long runs and a failed run leaves no half-written VCD. The header holds no
 //! date, so the same run gives a byte-identical file.
 
+use super::fst::{fst_err, FstBody, FstHandle};
 use crate::error::{Error, Result};
 use crate::output::TempFile;
 use fst_writer::{
-    FstBodyWriter, FstFileType, FstHeaderWriter, FstInfo, FstScopeType, FstSignalId, FstSignalType,
+    FstFileType, FstHeaderWriter, FstInfo, FstScopeType, FstSignalId, FstSignalType,
     FstVarDirection, FstVarType,
 };
 use shellsim_hw::trace::{Probe, SignalDecl, SignalKind as HwKind};
@@ -70,12 +71,8 @@ pub const FST_TEXT_CHARS: u32 = 16;
 /// The FST writer, in its two phases: header (scopes and variables), then value changes.
 enum Fst {
     Header(FstHeaderWriter<BufWriter<File>>),
-    Body(FstBodyWriter<BufWriter<File>>),
+    Body(FstBody),
 }
-
-/// Flush the FST's value changes into a compressed section past this many buffered bytes,
-/// so memory stays bounded on long runs.
-const FST_FLUSH_BYTES: usize = 8 << 20;
 
 /// A cycle window `[from, to]`, both ends inclusive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -329,8 +326,6 @@ pub struct VcdWriter {
     body: Option<BodyThread>,
     /// The FST writer instead of `out` when the path ends in `.fst`.
     fst: Option<Fst>,
-    /// A value as FST writes it: one ASCII '0'/'1' per bit, MSB first.
-    fst_buf: Vec<u8>,
     opts: VcdOptions,
     slots: Vec<Slot>,
     /// Signal order of the header (indices into `slots`).
@@ -396,7 +391,6 @@ impl VcdWriter {
             out,
             body,
             fst,
-            fst_buf: Vec::new(),
             opts,
             slots: Vec::new(),
             declared: Vec::new(),
@@ -438,13 +432,7 @@ impl VcdWriter {
                 crate::output::sync_file(&f)?;
                 f.metadata().map(|m| m.len())
             })(),
-            (None, Some(Fst::Body(b))) => (|| -> io::Result<u64> {
-                let mut w = b.finish().map_err(fst_err)?;
-                w.flush()?;
-                let f = w.get_ref();
-                crate::output::sync_file(f)?;
-                f.metadata().map(|m| m.len())
-            })(),
+            (None, Some(Fst::Body(b))) => b.finish(),
             _ => unreachable!("finish runs once, after the header"),
         };
         let tmp = self.tmp.take().expect("finish runs once");
@@ -514,7 +502,17 @@ impl VcdWriter {
             };
             let mut order = Vec::new();
             declare_fst(&mut h, &root, &mut self.slots, &mut order).map_err(fst_err)?;
-            self.fst = Some(Fst::Body(h.finish().map_err(fst_err)?));
+            let b = h.finish().map_err(fst_err)?;
+            let handles = self.slots.iter().map(|s| FstHandle {
+                id: s.fst_id,
+                text: s.kind == SignalKind::Text,
+            });
+            let handles = handles.collect();
+            let texts = self
+                .slots
+                .iter_mut()
+                .map(|s| std::mem::take(&mut s.text_lines));
+            self.fst = Some(Fst::Body(FstBody::new(b, handles, texts.collect())?));
             self.declared = order;
             return Ok(());
         }
@@ -547,12 +545,7 @@ impl VcdWriter {
         self.window_open = true;
         self.timestamps += 1;
         if let Some(Fst::Body(b)) = &mut self.fst {
-            // FST has no $dumpvars: the first time's values are the initial state.
-            b.time_change(t).map_err(fst_err)?;
-            for &i in &self.declared {
-                fst_value(b, &self.slots[i], self.prev[i], &mut self.fst_buf)?;
-            }
-            return Ok(());
+            return b.dump_all(t, &self.declared, &self.prev);
         }
         let buf = &mut self.buf;
         put_time(buf, t);
@@ -579,23 +572,8 @@ impl VcdWriter {
     fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
         let slots = &self.slots;
         if let Some(Fst::Body(b)) = &mut self.fst {
-            let mut stamped = false;
-            for (i, (p, &v)) in self.prev.iter_mut().zip(values).enumerate() {
-                if *p != v {
-                    *p = v;
-                    let s = &slots[i];
-                    if s.declared {
-                        if !stamped {
-                            stamped = true;
-                            self.timestamps += 1;
-                            b.time_change(t).map_err(fst_err)?;
-                        }
-                        fst_value(b, s, v, &mut self.fst_buf)?;
-                    }
-                }
-            }
-            if stamped && self.timestamps.is_multiple_of(256) && b.size() > FST_FLUSH_BYTES {
-                b.flush().map_err(fst_err)?;
+            if b.write_changes(t, &mut self.prev, values)? {
+                self.timestamps += 1;
             }
             return Ok(());
         }
@@ -855,14 +833,6 @@ fn declare<W: Write>(
     Ok(())
 }
 
-/// An FST error as an I/O error (the writer reports every failure as "writing: …").
-fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
-    match e {
-        fst_writer::FstWriteError::Io(e) => e,
-        e => io::Error::other(e.to_string()),
-    }
-}
-
 /// Declares `node`'s children in the FST, as [`declare`] does in the VCD.
 fn declare_fst<W: Write + io::Seek>(
     h: &mut FstHeaderWriter<W>,
@@ -888,6 +858,7 @@ fn declare_fst<W: Write + io::Seek>(
             s.declared = true;
             s.fst_id = Some(id);
             s.text_lines = s.names.iter().map(|n| fst_text_bits(n)).collect();
+            s.text_lines.push(fst_text_bits("-"));
             order.push(i);
         }
         declare_fst(h, c, slots, order)?;
@@ -910,25 +881,6 @@ fn fst_text_bits(t: &str) -> Vec<u8> {
         buf.extend_from_slice(&BIN8[c as usize]);
     }
     buf
-}
-
-/// Writes one value change into the FST: the bits MSB first, a text as ASCII bytes.
-fn fst_value<W: Write + io::Seek>(
-    b: &mut FstBodyWriter<W>,
-    s: &Slot,
-    v: u64,
-    buf: &mut Vec<u8>,
-) -> io::Result<()> {
-    let id = s.fst_id.expect("only declared signals are written");
-    if s.kind == SignalKind::Text {
-        let line = s.text_lines.get(v as usize).map_or(&[][..], |l| &l[..]);
-        return b.signal_change(id, line).map_err(fst_err);
-    }
-    buf.clear();
-    for k in (0..s.width).rev() {
-        buf.push(b'0' + ((v >> k) & 1) as u8);
-    }
-    b.signal_change(id, buf).map_err(fst_err)
 }
 
 /// Every byte as eight ASCII '0'/'1', MSB first.
