@@ -429,6 +429,7 @@ struct VcdBody {
     limit: u64,
     path: PathBuf,
     over: Arc<AtomicBool>,
+    scratch: Scratch,
 }
 
 impl VcdBody {
@@ -511,7 +512,7 @@ impl Body for VcdBody {
         put_time(buf, t);
         buf.extend_from_slice(b"$dumpvars\n");
         for &i in &self.declared {
-            put_value(buf, &self.slots[i], self.prev[i]);
+            put_value(buf, &mut self.scratch, &self.slots[i], self.prev[i]);
         }
         buf.extend_from_slice(b"$end\n");
         self.drain_buf()
@@ -530,8 +531,13 @@ impl Body for VcdBody {
             let w = if base < whole { 8 } else { n - base };
             let mut m = 0u32;
             if w == 8 {
-                let p: &[u64; 8] = self.prev[base..base + 8].try_into().expect("8");
+                let p: &mut [u64; 8] = (&mut self.prev[base..base + 8]).try_into().expect("8");
                 let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
+                // Most blocks hold no change: one test for the eight.
+                if p == v {
+                    base += 8;
+                    continue;
+                }
                 for k in 0..8 {
                     m |= ((p[k] != v[k]) as u32) << k;
                 }
@@ -552,7 +558,7 @@ impl Body for VcdBody {
                         self.timestamps += 1;
                         put_time(buf, t);
                     }
-                    put_value(buf, s, v);
+                    put_value(buf, &mut self.scratch, s, v);
                 }
             }
             base += 8;
@@ -821,6 +827,7 @@ impl VcdWriter {
             limit: self.limit,
             path: self.path.clone(),
             over: Arc::new(AtomicBool::new(false)),
+            scratch: Scratch::default(),
         }));
         self.declared = order;
         Ok(())
@@ -1178,39 +1185,10 @@ fn put_decimal(buf: &mut Vec<u8>, mut t: u64) {
     buf.extend_from_slice(&d[20 - n..]);
 }
 
-/// Every byte's digits without leading zeros ("0" for zero), left-aligned and zero-padded
-/// to 8 bytes, and how many count.
-static BIN8_TRIM: [([u8; 8], usize); 256] = {
-    let mut t = [([0u8; 8], 0usize); 256];
-    let mut i = 0;
-    while i < 256 {
-        let mut n = 8;
-        while n > 1 && (i >> (n - 1)) & 1 == 0 {
-            n -= 1;
-        }
-        let mut k = 0;
-        while k < n {
-            t[i].0[k] = b'0' + ((i >> (n - 1 - k)) & 1) as u8;
-            k += 1;
-        }
-        t[i].1 = n;
-        i += 1;
-    }
-    t
-};
-
-/// Appends `bytes`, of which the first `n` count (one fixed-size copy, then a cut).
-#[inline(always)]
-fn put8(buf: &mut Vec<u8>, bytes: &[u8; 8], n: usize) {
-    buf.extend_from_slice(bytes);
-    let l = buf.len();
-    buf.truncate(l - 8 + n);
-}
-
 /// One VCD value change line, as the `vcd` crate writes it: `0!`/`1!` for a one-bit wire,
 /// `b<bits> !` for a vector (leading zeros dropped, which VCD zero-extends), `s<text> !`.
 #[inline]
-fn put_value(buf: &mut Vec<u8>, s: &Slot, v: u64) {
+fn put_value(buf: &mut Vec<u8>, scratch: &mut Scratch, s: &Slot, v: u64) {
     match s.kind {
         SignalKind::Text => {
             if let Some(l) = s.text_lines.get(v as usize) {
@@ -1218,26 +1196,54 @@ fn put_value(buf: &mut Vec<u8>, s: &Slot, v: u64) {
             } else {
                 // Not a state of the declared list: shown as "-".
                 buf.extend_from_slice(b"s- ");
-                put8(buf, &s.id_nl, s.id_nl_len);
+                put_cut(buf, &s.id_nl, s.id_nl_len);
             }
         }
         _ if s.width == 1 => {
-            buf.push(b'0' + (v & 1) as u8);
-            put8(buf, &s.id_nl, s.id_nl_len);
+            let mut l = [0u8; 16];
+            l[0] = b'0' + (v & 1) as u8;
+            l[1..9].copy_from_slice(&s.id_nl);
+            put_cut(buf, &l, 1 + s.id_nl_len);
         }
         _ => {
-            buf.push(b'b');
+            // The line is built in `l`: the 64 digits at 1..65 (eight at a time, up to the
+            // highest byte set), 'b' before the first significant one, then ' ', the id and
+            // the newline; it goes out in one fixed-size copy from the 'b', then a cut. (What
+            // `l` holds before the 'b' is left from earlier lines.)
+            let l = &mut scratch.0;
             let n = (64 - v.leading_zeros()).max(1) as usize;
-            let top = (n - 1) / 8;
-            let (first, len) = &BIN8_TRIM[((v >> (8 * top)) & 0xFF) as usize];
-            put8(buf, first, *len);
-            for k in (0..top).rev() {
-                buf.extend_from_slice(&BIN8[((v >> (8 * k)) & 0xFF) as usize]);
+            for k in 0..=(n - 1) / 8 {
+                let at = 57 - 8 * k;
+                l[at..at + 8].copy_from_slice(&BIN8[((v >> (8 * k)) & 0xFF) as usize]);
             }
-            buf.push(b' ');
-            put8(buf, &s.id_nl, s.id_nl_len);
+            let start = 64 - n;
+            l[start] = b'b';
+            l[65] = b' ';
+            l[66..74].copy_from_slice(&s.id_nl);
+            let line: &[u8; LINE] = l[start..start + LINE].try_into().expect("in the array");
+            put_cut(buf, line, n + 2 + s.id_nl_len);
         }
     }
+}
+
+/// Where [`put_value`] builds a vector's line (kept from line to line: nothing to clear).
+struct Scratch([u8; 64 + LINE]);
+
+impl Default for Scratch {
+    fn default() -> Self {
+        Scratch([0; 64 + LINE])
+    }
+}
+
+/// Bytes of the longest vector line (`b`, 64 digits, ' ', a 7-character id, '\n'), rounded up.
+const LINE: usize = 80;
+
+/// Appends `bytes`, of which the first `n` count (one fixed-size copy, then a cut).
+#[inline(always)]
+fn put_cut<const N: usize>(buf: &mut Vec<u8>, bytes: &[u8; N], n: usize) {
+    buf.extend_from_slice(bytes);
+    let l = buf.len();
+    buf.truncate(l - N + n);
 }
 
 #[cfg(test)]
@@ -1334,7 +1340,7 @@ mod tests {
         };
         for v in [0u64, 1, 2, 0xFF, 0x100, 0x1234_5678, 0xFF_FFFF_FFFF] {
             let mut buf = Vec::new();
-            put_value(&mut buf, &slot, v);
+            put_value(&mut buf, &mut Scratch::default(), &slot, v);
             let mut w = vcd::Writer::new(Vec::new());
             let n = (64 - v.leading_zeros()).max(1);
             let bits = (0..n).rev().map(|k| {
@@ -1349,7 +1355,7 @@ mod tests {
         }
         slot.width = 1;
         let mut buf = Vec::new();
-        put_value(&mut buf, &slot, 1);
+        put_value(&mut buf, &mut Scratch::default(), &slot, 1);
         assert_eq!(buf, b"1%+\n");
         let mut buf = Vec::new();
         put_time(&mut buf, 1234567);
