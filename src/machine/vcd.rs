@@ -416,12 +416,21 @@ struct VcdBody {
     declared: Vec<usize>,
     /// The last sample's values (those holding now).
     prev: Vec<u64>,
+    /// Per eight values, which of them changed (the compare's pass; reused).
+    masks: Vec<u8>,
     window: Window,
     clock: Clock,
     samples: u64,
     timestamps: u64,
-    /// Bytes not yet written (the header first).
-    buf: Vec<u8>,
+    /// The header, written first.
+    head: Vec<u8>,
+    /// The bytes on their way to the file: a fixed array filled from the front, each line
+    /// written in place (fixed-size copies, no growth check) and handed to the file once
+    /// past [`VCD_BLOCK_BYTES`]; `margin` bytes past that take the longest line.
+    out: Vec<u8>,
+    /// Bytes of `out` filled.
+    at: usize,
+    margin: usize,
     file: File,
     /// Bytes written so far.
     bytes_out: u64,
@@ -429,7 +438,6 @@ struct VcdBody {
     limit: u64,
     path: PathBuf,
     over: Arc<AtomicBool>,
-    scratch: Scratch,
 }
 
 impl VcdBody {
@@ -440,6 +448,9 @@ impl VcdBody {
         back: std::sync::mpsc::Sender<Vec<u64>>,
     ) -> std::result::Result<BodyEnd, BodyError> {
         let stride = self.prev.len() + 1;
+        let head = std::mem::take(&mut self.head);
+        self.file.write_all(&head).map_err(BodyError::Io)?;
+        self.bytes_out = head.len() as u64;
         let mut failed = None;
         for mut chunk in rx {
             if failed.is_none() {
@@ -457,7 +468,7 @@ impl VcdBody {
         if let Some(e) = failed {
             return Err(e);
         }
-        self.file.write_all(&self.buf).map_err(BodyError::Io)?;
+        self.flush().map_err(BodyError::Io)?;
         Ok(BodyEnd {
             file: self.file,
             timestamps: self.timestamps,
@@ -471,7 +482,7 @@ impl VcdBody {
             .map_err(BodyError::Io)?;
         self.samples += 1;
         if self.samples.is_multiple_of(1024) {
-            let bytes = self.bytes_out + self.buf.len() as u64;
+            let bytes = self.bytes_out + self.at as u64;
             if bytes > self.limit {
                 self.over.store(true, Ordering::Relaxed);
                 return Err(BodyError::Limit(format!(
@@ -485,13 +496,46 @@ impl VcdBody {
         Ok(())
     }
 
-    /// Writes the buffered bytes to the file once they are many.
-    fn drain_buf(&mut self) -> io::Result<()> {
-        if self.buf.len() >= VCD_BLOCK_BYTES {
-            self.bytes_out += self.buf.len() as u64;
-            self.file.write_all(&self.buf)?;
-            self.buf.clear();
+    /// Room for the next line (`margin` bytes at `at`), the bytes written out first once
+    /// they are many.
+    #[inline(always)]
+    fn room(&mut self) -> io::Result<&mut [u8]> {
+        if self.at > VCD_BLOCK_BYTES {
+            self.flush()?;
         }
+        Ok(&mut self.out[self.at..self.at + self.margin])
+    }
+
+    /// Writes the filled bytes to the file.
+    fn flush(&mut self) -> io::Result<()> {
+        self.file.write_all(&self.out[..self.at])?;
+        self.bytes_out += self.at as u64;
+        self.at = 0;
+        Ok(())
+    }
+
+    /// Appends `bytes` (at most `margin` of them).
+    fn put(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.room()?[..bytes.len()].copy_from_slice(bytes);
+        self.at += bytes.len();
+        Ok(())
+    }
+
+    /// `#t\n`.
+    fn put_time(&mut self, t: u64) -> io::Result<()> {
+        let n = put_time(self.room()?, t);
+        self.at += n;
+        Ok(())
+    }
+
+    /// Slot `i`'s line for the value `v`.
+    #[inline(always)]
+    fn put_value(&mut self, i: usize, v: u64) -> io::Result<()> {
+        if self.at > VCD_BLOCK_BYTES {
+            self.flush()?;
+        }
+        let w = &mut self.out[self.at..self.at + self.margin];
+        self.at += put_value(w, &self.slots[i], v);
         Ok(())
     }
 }
@@ -508,62 +552,60 @@ impl Body for VcdBody {
     /// `#t` and the values in a `$dumpvars` block.
     fn dump_all(&mut self, t: u64) -> io::Result<()> {
         self.timestamps += 1;
-        let buf = &mut self.buf;
-        put_time(buf, t);
-        buf.extend_from_slice(b"$dumpvars\n");
-        for &i in &self.declared {
-            put_value(buf, &mut self.scratch, &self.slots[i], self.prev[i]);
+        self.put_time(t)?;
+        self.put(b"$dumpvars\n")?;
+        for k in 0..self.declared.len() {
+            let i = self.declared[k];
+            self.put_value(i, self.prev[i])?;
         }
-        buf.extend_from_slice(b"$end\n");
-        self.drain_buf()
+        self.put(b"$end\n")
     }
 
-    /// In one pass, eight values at a time.
+    /// In two passes: the compare alone, a mask of the changed values per eight (no branch
+    /// per value), then the lines of the changed ones.
     fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
-        let slots = &self.slots;
-        let buf = &mut self.buf;
-        let mut stamped = false;
-        // Eight values at a time: a mask of the changed ones, then only those.
-        let n = values.len();
-        let whole = n - n % 8;
-        let mut base = 0;
-        while base < n {
-            let w = if base < whole { 8 } else { n - base };
-            let mut m = 0u32;
-            if w == 8 {
-                let p: &mut [u64; 8] = (&mut self.prev[base..base + 8]).try_into().expect("8");
-                let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
-                // Most blocks hold no change: one test for the eight.
-                if p == v {
-                    base += 8;
-                    continue;
-                }
-                for k in 0..8 {
-                    m |= ((p[k] != v[k]) as u32) << k;
-                }
-            } else {
-                for k in 0..w {
-                    m |= ((self.prev[base + k] != values[base + k]) as u32) << k;
-                }
+        let mut masks = std::mem::take(&mut self.masks);
+        let mut p8 = self.prev.chunks_exact(8);
+        let mut v8 = values.chunks_exact(8);
+        let mut mk = masks.iter_mut();
+        for ((p, v), m) in (&mut p8).zip(&mut v8).zip(&mut mk) {
+            let p: &[u64; 8] = p.try_into().expect("8");
+            let v: &[u64; 8] = v.try_into().expect("8");
+            let mut x = 0u8;
+            for k in 0..8 {
+                x |= ((p[k] != v[k]) as u8) << k;
             }
+            *m = x;
+        }
+        if let Some(m) = mk.next() {
+            let rest = p8.remainder().iter().zip(v8.remainder());
+            *m = rest
+                .enumerate()
+                .fold(0, |x, (k, (p, v))| x | ((p != v) as u8) << k);
+        }
+        self.prev.copy_from_slice(values);
+        let mut stamped = false;
+        let mut r = Ok(());
+        'blocks: for (b, &m) in masks.iter().enumerate() {
+            let mut m = m;
             while m != 0 {
-                let i = base + m.trailing_zeros() as usize;
+                let i = 8 * b + m.trailing_zeros() as usize;
                 m &= m - 1;
-                let v = values[i];
-                self.prev[i] = v;
-                let s = &slots[i];
-                if s.declared {
+                if self.slots[i].declared {
                     if !stamped {
                         stamped = true;
                         self.timestamps += 1;
-                        put_time(buf, t);
+                        r = self.put_time(t);
                     }
-                    put_value(buf, &mut self.scratch, s, v);
+                    r = r.and_then(|()| self.put_value(i, values[i]));
+                    if r.is_err() {
+                        break 'blocks;
+                    }
                 }
             }
-            base += 8;
         }
-        self.drain_buf()
+        self.masks = masks;
+        r
     }
 }
 
@@ -811,23 +853,30 @@ impl VcdWriter {
         declare(w, &root, &mut self.slots, &mut order)?;
         w.enddefinitions()?;
         // The header goes out ahead of the body, which the body's thread writes from now on.
-        let mut buf = Vec::with_capacity(VCD_BLOCK_BYTES + (1 << 16));
-        buf.extend_from_slice(w.writer());
+        let head = std::mem::take(w.writer());
+        let margin = self
+            .slots
+            .iter()
+            .flat_map(|s| s.text_lines.iter().map(Vec::len))
+            .fold(LINE, usize::max);
         self.stream = Some(VcdStream::start(VcdBody {
             slots: self.slots.clone(),
             declared: order.clone(),
             prev: vec![0; self.slots.len()],
+            masks: vec![0; self.slots.len().div_ceil(8)],
             window: self.opts.window,
             clock: Clock::default(),
             samples: 0,
             timestamps: 0,
-            buf,
+            head,
+            out: vec![0; VCD_BLOCK_BYTES + 1 + margin],
+            at: 0,
+            margin,
             file: self.file.take().expect("the VCD's file until the header"),
             bytes_out: 0,
             limit: self.limit,
             path: self.path.clone(),
             over: Arc::new(AtomicBool::new(false)),
-            scratch: Scratch::default(),
         }));
         self.declared = order;
         Ok(())
@@ -1163,87 +1212,91 @@ static BIN8: [[u8; 8]; 256] = {
     t
 };
 
-/// `#t\n`.
-fn put_time(buf: &mut Vec<u8>, t: u64) {
-    buf.push(b'#');
-    put_decimal(buf, t);
-    buf.push(b'\n');
-}
-
-/// `t` in decimal.
-fn put_decimal(buf: &mut Vec<u8>, mut t: u64) {
-    let mut d = [0u8; 20];
-    let mut n = 0;
+/// `#t\n` at the front of `w` (22 bytes or more); returns its length.
+fn put_time(w: &mut [u8], mut t: u64) -> usize {
+    let mut d = [0u8; 22];
+    d[21] = b'\n';
+    let mut at = 21;
     loop {
-        d[19 - n] = b'0' + (t % 10) as u8;
-        n += 1;
+        at -= 1;
+        d[at] = b'0' + (t % 10) as u8;
         t /= 10;
         if t == 0 {
             break;
         }
     }
-    buf.extend_from_slice(&d[20 - n..]);
+    at -= 1;
+    d[at] = b'#';
+    let n = 22 - at;
+    w[..n].copy_from_slice(&d[at..]);
+    n
 }
 
-/// One VCD value change line, as the `vcd` crate writes it: `0!`/`1!` for a one-bit wire,
-/// `b<bits> !` for a vector (leading zeros dropped, which VCD zero-extends), `s<text> !`.
-#[inline]
-fn put_value(buf: &mut Vec<u8>, scratch: &mut Scratch, s: &Slot, v: u64) {
+/// Every byte's digits without leading zeros ("0" for zero), left-aligned and zero-padded
+/// to 8 bytes, and how many count.
+static BIN8_TRIM: [([u8; 8], usize); 256] = {
+    let mut t = [([0u8; 8], 0usize); 256];
+    let mut i = 0;
+    while i < 256 {
+        let mut n = 8;
+        while n > 1 && (i >> (n - 1)) & 1 == 0 {
+            n -= 1;
+        }
+        let mut k = 0;
+        while k < n {
+            t[i].0[k] = b'0' + ((i >> (n - 1 - k)) & 1) as u8;
+            k += 1;
+        }
+        t[i].1 = n;
+        i += 1;
+    }
+    t
+};
+
+/// Bytes of the longest vector line (`b`, 64 digits, ' ', a 7-character id, '\n'), with
+/// room for the last fixed-size copies.
+const LINE: usize = 80;
+
+/// One VCD value change line, as the `vcd` crate writes it, at the front of `w` (at least
+/// [`LINE`] bytes, and the slot's longest text line); returns its length: `0!`/`1!` for a
+/// one-bit wire, `b<bits> !` for a vector (leading zeros dropped, which VCD zero-extends),
+/// `s<text> !`. Digits go eight at a time (a byte's, from a table) and the id as one 8-byte
+/// copy; bytes past the line's end are left as they fall.
+#[inline(always)]
+fn put_value(w: &mut [u8], s: &Slot, v: u64) -> usize {
     match s.kind {
         SignalKind::Text => {
             if let Some(l) = s.text_lines.get(v as usize) {
-                buf.extend_from_slice(l);
-            } else {
-                // Not a state of the declared list: shown as "-".
-                buf.extend_from_slice(b"s- ");
-                put_cut(buf, &s.id_nl, s.id_nl_len);
+                w[..l.len()].copy_from_slice(l);
+                return l.len();
             }
+            // Not a state of the declared list: shown as "-".
+            w[..3].copy_from_slice(b"s- ");
+            w[3..11].copy_from_slice(&s.id_nl);
+            3 + s.id_nl_len
         }
         _ if s.width == 1 => {
-            let mut l = [0u8; 16];
-            l[0] = b'0' + (v & 1) as u8;
-            l[1..9].copy_from_slice(&s.id_nl);
-            put_cut(buf, &l, 1 + s.id_nl_len);
+            w[0] = b'0' + (v & 1) as u8;
+            w[1..9].copy_from_slice(&s.id_nl);
+            1 + s.id_nl_len
         }
         _ => {
-            // The line is built in `l`: the 64 digits at 1..65 (eight at a time, up to the
-            // highest byte set), 'b' before the first significant one, then ' ', the id and
-            // the newline; it goes out in one fixed-size copy from the 'b', then a cut. (What
-            // `l` holds before the 'b' is left from earlier lines.)
-            let l = &mut scratch.0;
+            let w: &mut [u8; LINE] = (&mut w[..LINE]).try_into().expect("LINE bytes");
+            w[0] = b'b';
             let n = (64 - v.leading_zeros()).max(1) as usize;
-            for k in 0..=(n - 1) / 8 {
-                let at = 57 - 8 * k;
-                l[at..at + 8].copy_from_slice(&BIN8[((v >> (8 * k)) & 0xFF) as usize]);
+            let top = (n - 1) / 8;
+            let (first, len) = &BIN8_TRIM[((v >> (8 * top)) & 0xFF) as usize];
+            w[1..9].copy_from_slice(first);
+            let mut at = 1 + len;
+            for k in (0..top).rev() {
+                w[at..at + 8].copy_from_slice(&BIN8[((v >> (8 * k)) & 0xFF) as usize]);
+                at += 8;
             }
-            let start = 64 - n;
-            l[start] = b'b';
-            l[65] = b' ';
-            l[66..74].copy_from_slice(&s.id_nl);
-            let line: &[u8; LINE] = l[start..start + LINE].try_into().expect("in the array");
-            put_cut(buf, line, n + 2 + s.id_nl_len);
+            w[at] = b' ';
+            w[at + 1..at + 9].copy_from_slice(&s.id_nl);
+            at + 1 + s.id_nl_len
         }
     }
-}
-
-/// Where [`put_value`] builds a vector's line (kept from line to line: nothing to clear).
-struct Scratch([u8; 64 + LINE]);
-
-impl Default for Scratch {
-    fn default() -> Self {
-        Scratch([0; 64 + LINE])
-    }
-}
-
-/// Bytes of the longest vector line (`b`, 64 digits, ' ', a 7-character id, '\n'), rounded up.
-const LINE: usize = 80;
-
-/// Appends `bytes`, of which the first `n` count (one fixed-size copy, then a cut).
-#[inline(always)]
-fn put_cut<const N: usize>(buf: &mut Vec<u8>, bytes: &[u8; N], n: usize) {
-    buf.extend_from_slice(bytes);
-    let l = buf.len();
-    buf.truncate(l - N + n);
 }
 
 #[cfg(test)]
@@ -1338,9 +1391,19 @@ mod tests {
             names: Vec::new(),
             fst_id: None,
         };
-        for v in [0u64, 1, 2, 0xFF, 0x100, 0x1234_5678, 0xFF_FFFF_FFFF] {
-            let mut buf = Vec::new();
-            put_value(&mut buf, &mut Scratch::default(), &slot, v);
+        let mut w = [0u8; LINE];
+        for v in [
+            0u64,
+            1,
+            2,
+            0xFF,
+            0x100,
+            0x1234_5678,
+            0xFF_FFFF_FFFF,
+            u64::MAX,
+        ] {
+            let n = put_value(&mut w, &slot, v);
+            let buf = w[..n].to_vec();
             let mut w = vcd::Writer::new(Vec::new());
             let n = (64 - v.leading_zeros()).max(1);
             let bits = (0..n).rev().map(|k| {
@@ -1354,13 +1417,14 @@ mod tests {
             assert_eq!(buf, w.writer().clone(), "{v:#x}");
         }
         slot.width = 1;
-        let mut buf = Vec::new();
-        put_value(&mut buf, &mut Scratch::default(), &slot, 1);
-        assert_eq!(buf, b"1%+\n");
-        let mut buf = Vec::new();
-        put_time(&mut buf, 1234567);
-        put_time(&mut buf, 0);
-        assert_eq!(buf, b"#1234567\n#0\n");
+        let n = put_value(&mut w, &slot, 1);
+        assert_eq!(&w[..n], b"1%+\n");
+        let n = put_time(&mut w, 1234567);
+        assert_eq!(&w[..n], b"#1234567\n");
+        let n = put_time(&mut w, 0);
+        assert_eq!(&w[..n], b"#0\n");
+        let n = put_time(&mut w, u64::MAX);
+        assert_eq!(&w[..n], format!("#{}\n", u64::MAX).as_bytes());
     }
 
     /// The window opens with the values holding at `from`, even between two samples.

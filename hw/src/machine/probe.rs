@@ -2,7 +2,8 @@
 //! ([`Machine::walk`]) visits them in the waveform's signal order: on the first sample it
 //! declares the layout to the [`Probe`] (scope names built once), on every sample it fills a
 //! flat value array, position = signal id, handed to the probe whole — no string is touched
-//! per cycle and nothing is allocated.
+//! per cycle and nothing is allocated. The array keeps the last sample's values, so an empty
+//! ICU's stages (all zero) are skipped when it was empty at the last sample too.
 
 use super::links::{probe_link, Section};
 use super::Machine;
@@ -17,6 +18,13 @@ pub(super) trait Sink {
     fn text(&mut self, scope: &str, name: &'static str, names: &'static [&'static str], index: u64);
     /// A signed fixed-point value (raw) with `frac` fractional bits in `width` bits.
     fn fixed(&mut self, scope: &str, name: &'static str, width: u32, frac: u32, raw: i64);
+    /// The next `n` signals are cluster `c`'s ICU stages, all zero while `idle` (the ICU is
+    /// empty): a filler skips them, leaving them as they are, when the ICU was empty at the
+    /// last sample too. True when skipped (the walk then reports none of them).
+    fn skip_idle_icu(&mut self, c: usize, idle: bool, n: usize) -> bool {
+        let _ = (c, idle, n);
+        false
+    }
 }
 
 /// The low `width` bits.
@@ -63,13 +71,15 @@ impl Sink for Declare {
 /// [`FillChecked`].
 const FILL_CAP: usize = 1 << 12;
 
-/// Fills the value array in signal order. The position wraps at the array's size, so no put
-/// can panic (the compiler then keeps the position in a register over a run of puts and
-/// drops the bound checks); `Machine::probe` checks once per sample that the walk filled
-/// exactly the layout, which is never larger than the array.
+/// Fills the value array in signal order, over the last sample's values. The position wraps
+/// at the array's size, so no put can panic (the compiler then keeps the position in a
+/// register over a run of puts and drops the bound checks); `Machine::probe` checks once per
+/// sample that the walk filled exactly the layout, which is never larger than the array.
 struct Fill<'a> {
     values: &'a mut [u64; FILL_CAP],
     pos: usize,
+    /// Per cluster: its ICU was empty at the last sample.
+    icu_idle: &'a mut [bool],
 }
 
 impl Fill<'_> {
@@ -80,10 +90,12 @@ impl Fill<'_> {
     }
 }
 
-/// Fills a value array of any size (a layout past [`FILL_CAP`]), a bound check per value.
+/// Fills a value array of any size (a layout past [`FILL_CAP`]) as [`Fill`] does, a bound
+/// check per value.
 struct FillChecked<'a> {
     values: &'a mut [u64],
     pos: usize,
+    icu_idle: &'a mut [bool],
 }
 
 impl FillChecked<'_> {
@@ -112,6 +124,18 @@ macro_rules! fill_sink {
             fn fixed(&mut self, _: &str, _: &'static str, width: u32, _: u32, raw: i64) {
                 self.put(raw as u64 & mask(width));
             }
+            #[inline(always)]
+            fn skip_idle_icu(&mut self, c: usize, idle: bool, n: usize) -> bool {
+                let Some(was) = self.icu_idle.get_mut(c) else {
+                    return false;
+                };
+                let skip = idle && *was;
+                *was = idle;
+                if skip {
+                    self.pos += n;
+                }
+                skip
+            }
         }
     };
 }
@@ -127,18 +151,25 @@ impl Machine<'_> {
             let mut d = Declare(Vec::new());
             self.walk(&sc, &mut d);
             p.declare(&d.0);
-            self.probe_values = vec![0; d.0.len().max(FILL_CAP)];
+            let n = d.0.len();
+            self.probe_values = vec![0; n.max(FILL_CAP)];
             self.scopes = Some(Scopes {
-                signals: d.0.len(),
+                signals: n,
+                icu_idle: vec![false; self.clusters.len()],
                 ..sc
             });
         }
-        let sc = self.scopes.take().expect("built above");
+        let mut sc = self.scopes.take().expect("built above");
         let mut values = std::mem::take(&mut self.probe_values);
+        let mut icu_idle = std::mem::take(&mut sc.icu_idle);
         let n = sc.signals;
         let filled = match <&mut [u64; FILL_CAP]>::try_from(&mut values[..]) {
-            Ok(a) if n <= FILL_CAP => {
-                let mut f = Fill { values: a, pos: 0 };
+            Ok(values) if n <= FILL_CAP => {
+                let mut f = Fill {
+                    values,
+                    pos: 0,
+                    icu_idle: &mut icu_idle,
+                };
                 self.walk(&sc, &mut f);
                 f.pos
             }
@@ -146,6 +177,7 @@ impl Machine<'_> {
                 let mut f = FillChecked {
                     values: &mut values,
                     pos: 0,
+                    icu_idle: &mut icu_idle,
                 };
                 self.walk(&sc, &mut f);
                 f.pos
@@ -154,6 +186,7 @@ impl Machine<'_> {
         assert_eq!(filled, n, "the walk's layout never changes");
         p.sample(self.cycle, &values[..n]);
         self.probe_values = values;
+        sc.icu_idle = icu_idle;
         self.scopes = Some(sc);
     }
 
@@ -251,17 +284,21 @@ impl Machine<'_> {
                 }
             }
             p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
-            for n in 0..cl.icu.depth() {
-                // t is shown in the result stage only (`stage_job` gives it there alone).
-                let (valid, ray, patch, t) = match cl.icu.stage_job(n) {
-                    Some((j, t)) => (1, j.ray as u64, j.patch as u64, t.unwrap_or(0)),
-                    None => (0, 0, 0, 0),
-                };
-                let ss = &cs.stages[n];
-                p.bits(ss, "valid", 1, valid);
-                p.bits(ss, "ray", 32, ray);
-                p.bits(ss, "patch", 24, patch);
-                p.fixed(ss, "t", t_bits, t_frac, t);
+            // Four signals a stage (the count `skip_idle_icu` is told), all zero when empty.
+            let depth = cl.icu.depth();
+            if !p.skip_idle_icu(c, cl.icu.is_empty(), 4 * depth) {
+                for n in 0..depth {
+                    // t is shown in the result stage only (`stage_job` gives it there alone).
+                    let (valid, ray, patch, t) = match cl.icu.stage_job(n) {
+                        Some((j, t)) => (1, j.ray as u64, j.patch as u64, t.unwrap_or(0)),
+                        None => (0, 0, 0, 0),
+                    };
+                    let ss = &cs.stages[n];
+                    p.bits(ss, "valid", 1, valid);
+                    p.bits(ss, "ray", 32, ray);
+                    p.bits(ss, "patch", 24, patch);
+                    p.fixed(ss, "t", t_bits, t_frac, t);
+                }
             }
         }
     }
@@ -276,6 +313,8 @@ pub(super) struct Scopes {
     clusters: Vec<ClusterScopes>,
     /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
     signals: usize,
+    /// Per cluster: its ICU was empty at the last sample.
+    icu_idle: Vec<bool>,
 }
 
 #[derive(Clone, Debug)]
@@ -312,6 +351,7 @@ impl Scopes {
                 })
                 .collect(),
             signals: 0,
+            icu_idle: Vec::new(),
         }
     }
 }
