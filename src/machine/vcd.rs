@@ -1472,6 +1472,38 @@ mod tests {
         assert_eq!(dir.path().read_dir().unwrap().count(), 0);
     }
 
+    /// The writer's thread finds the size limit at the same sample whatever its timing:
+    /// the run stops (`stop`) soon after, and the error names that sample's cycle.
+    #[test]
+    fn the_size_limit_is_found_at_the_same_sample_every_time() {
+        let dir = tempfile::tempdir().unwrap();
+        for _ in 0..3 {
+            let p = dir.path().join("l.vcd");
+            let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
+            w.limit = 1000;
+            w.declare(&[decl("m", "x", 32, HwKind::Bits)]);
+            let mut sent = 0;
+            for t in 0..1_000_000u64 {
+                if w.stop() {
+                    break;
+                }
+                w.sample(t, &[t.wrapping_mul(0x9E37_79B9) & 0xFFFF_FFFF]);
+                sent += 1;
+            }
+            assert!(sent >= 1024 && sent < 1_000_000, "{sent} samples");
+            match w.finish() {
+                Err(Error::Usage(m)) => {
+                    assert!(
+                        m.contains("--wave-limit (1000 bytes) at cycle 1023,"),
+                        "{m}"
+                    )
+                }
+                other => panic!("{:?}", other.map(|s| s.bytes)),
+            }
+            assert_eq!(dir.path().read_dir().unwrap().count(), 0);
+        }
+    }
+
     #[test]
     fn a_sample_of_another_length_is_an_error() {
         let dir = tempfile::tempdir().unwrap();
