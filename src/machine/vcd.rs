@@ -1490,7 +1490,7 @@ mod tests {
                 w.sample(t, &[t.wrapping_mul(0x9E37_79B9) & 0xFFFF_FFFF]);
                 sent += 1;
             }
-            assert!(sent >= 1024 && sent < 1_000_000, "{sent} samples");
+            assert!((1024..1_000_000).contains(&sent), "{sent} samples");
             match w.finish() {
                 Err(Error::Usage(m)) => {
                     assert!(
