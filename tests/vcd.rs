@@ -378,6 +378,40 @@ fn the_header_declares_every_unit_scope() {
 }
 
 #[test]
+fn every_icu_stage_holds_each_job_for_one_cycle() {
+    // With no stall, every job spends one cycle in each stage: the cycles a stage's `valid`
+    // is 1 add up to the ICU's jobs. The probe skips an empty ICU's stages (when it was
+    // empty at the last sample too), so a stale stage would show here.
+    let f = full();
+    let depth = small().pipeline_depth();
+    for (c, cl) in f.stats.clusters.iter().enumerate() {
+        assert_eq!(cl.icu.stalled_cycles, 0, "cluster {c} stalled");
+        assert!(cl.icu.idle_cycles > 0, "cluster {c} never empty");
+        for n in 0..depth {
+            let stage = format!("machine.cluster_{c}.icu.stage_{n}");
+            let v = &f.wave.var(&format!("{stage}.valid")).changes;
+            let mut held = 0;
+            for (k, (t, x)) in v.iter().enumerate() {
+                let end = v.get(k + 1).map_or(f.stats.cycles, |(u, _)| *u);
+                if *x == V::Bits(1) {
+                    held += end - t;
+                }
+            }
+            assert_eq!(held, cl.icu.jobs_in, "{stage}");
+            // An empty stage shows zeros.
+            for leaf in ["ray", "patch", "t"] {
+                let w = f.wave.var(&format!("{stage}.{leaf}"));
+                for (t, x) in &w.changes {
+                    if f.wave.var(&format!("{stage}.valid")).at(*t) == Some(&V::Bits(0)) {
+                        assert_eq!(x, &V::Bits(0), "{stage}.{leaf} at {t}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn timestamps_increase_strictly_and_stay_inside_the_run() {
     let f = full();
     let ts = &f.wave.timestamps;

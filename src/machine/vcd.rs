@@ -41,6 +41,8 @@ use shellsim_hw::trace::{Probe, SignalDecl, SignalKind as HwKind};
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use vcd::{ReferenceIndex, TimescaleUnit, VarType};
 
 /// The waveform's file format, from the path's extension: `.fst` is FST, anything else VCD.
@@ -231,63 +233,381 @@ pub struct VcdSummary {
     pub bytes: u64,
 }
 
-/// The thread that writes the VCD's blocks to its file, in the order sent, so writing
-/// overlaps the simulation; the bytes are the same whatever the timing. Blocks go through a
-/// bounded channel (memory stays bounded) and come back empty to be reused (no allocation
-/// per block once a few circulate).
-struct BodyThread {
-    tx: std::sync::mpsc::SyncSender<Vec<u8>>,
-    back: std::sync::mpsc::Receiver<Vec<u8>>,
-    handle: std::thread::JoinHandle<io::Result<File>>,
+/// The VCD body's thread, fed by the simulation thread: each sample goes over as its cycle
+/// and its value array, one record after another in large chunks; the thread compares every
+/// sample with the last, formats the changed values' lines and writes them to the file. The
+/// simulation thread only copies its value array, and the bytes are the same whatever the
+/// timing (the thread takes the samples in the order sent). Chunks go through a bounded
+/// channel (memory stays bounded) and come back empty to be reused (no allocation per sample,
+/// nor per chunk once a few circulate).
+struct VcdStream {
+    tx: std::sync::mpsc::SyncSender<Vec<u64>>,
+    back: std::sync::mpsc::Receiver<Vec<u64>>,
+    /// Samples not yet sent: each its cycle, then its values.
+    chunk: Vec<u64>,
+    /// Words of a chunk (at least one sample).
+    chunk_words: usize,
+    /// Set by the thread once the waveform passed its size limit: the run then stops.
+    over: Arc<AtomicBool>,
+    handle: std::thread::JoinHandle<std::result::Result<BodyEnd, BodyError>>,
 }
 
-impl BodyThread {
-    fn new(mut f: File) -> Self {
-        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u8>>(2);
+/// Words of a sample chunk: 512 KiB, about 150 samples of the paper's machine.
+const CHUNK_WORDS: usize = 1 << 16;
+
+/// What the VCD body's thread ends with.
+struct BodyEnd {
+    file: File,
+    timestamps: u64,
+}
+
+/// Why the VCD body's thread stopped.
+enum BodyError {
+    Io(io::Error),
+    /// The size limit passed (a usage error, exit status 2).
+    Limit(String),
+}
+
+impl VcdStream {
+    /// Starts the thread on `body` (the header already in its buffer).
+    fn start(body: VcdBody) -> Self {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u64>>(2);
         let (back_tx, back) = std::sync::mpsc::channel();
-        let handle = std::thread::spawn(move || {
-            let mut err = None;
-            for mut b in rx {
-                if err.is_none() {
-                    err = f.write_all(&b).err();
-                }
-                b.clear();
-                // The writer may be gone (finished or dropped): nothing to hand back to.
-                let _ = back_tx.send(b);
-            }
-            match err {
-                Some(e) => Err(e),
-                None => Ok(f),
-            }
-        });
-        BodyThread { tx, back, handle }
+        let chunk_words = CHUNK_WORDS.max(body.prev.len() + 1);
+        let over = body.over.clone();
+        let handle = std::thread::spawn(move || body.run(rx, back_tx));
+        VcdStream {
+            tx,
+            back,
+            chunk: Vec::with_capacity(chunk_words),
+            chunk_words,
+            over,
+            handle,
+        }
     }
 
-    /// Sends `buf`'s bytes, leaving it an empty buffer (a returned one when there is one).
-    fn send(&mut self, buf: &mut Vec<u8>) -> io::Result<()> {
+    /// Queues the sample at `t`.
+    #[inline]
+    fn push(&mut self, t: u64, values: &[u64]) {
+        if self.chunk.len() + 1 + values.len() > self.chunk_words {
+            self.send();
+        }
+        self.chunk.push(t);
+        self.chunk.extend_from_slice(values);
+    }
+
+    /// Hands the chunk to the thread, taking a returned one (or a new one) in its place.
+    fn send(&mut self) {
         let next = self
             .back
             .try_recv()
-            .unwrap_or_else(|_| Vec::with_capacity(buf.capacity()));
-        let full = std::mem::replace(buf, next);
-        self.tx
-            .send(full)
-            .map_err(|_| io::Error::other("the VCD writer thread stopped"))
+            .unwrap_or_else(|_| Vec::with_capacity(self.chunk_words));
+        let full = std::mem::replace(&mut self.chunk, next);
+        // A closed channel: the thread stopped on an error, which `finish` reports.
+        let _ = self.tx.send(full);
     }
 
-    /// Sends the last bytes and waits for the file.
-    fn finish(mut self, mut last: Vec<u8>) -> io::Result<File> {
-        if !last.is_empty() {
-            self.send(&mut last)?;
+    /// Sends the last samples and waits for the thread.
+    fn finish(mut self) -> std::result::Result<BodyEnd, BodyError> {
+        if !self.chunk.is_empty() {
+            self.send();
         }
         drop(self.tx);
         self.handle
             .join()
-            .map_err(|_| io::Error::other("the VCD writer thread panicked"))?
+            .map_err(|_| BodyError::Io(io::Error::other("the VCD writer thread panicked")))?
+    }
+}
+
+/// The cycle of the last sample (None before the first) and whether the window is open,
+/// and what a sample at `t` does with them.
+#[derive(Clone, Copy, Debug, Default)]
+struct Clock {
+    t: Option<u64>,
+    window_open: bool,
+}
+
+/// What a sample does once its cycle is checked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Step {
+    /// Inside the open window: compare with the last sample and write the changes.
+    Changes,
+    /// Take the values without writing them.
+    Take,
+    /// Take the values and open the window here with all of them (`$dumpvars`).
+    TakeAndOpen,
+}
+
+impl Clock {
+    /// Moves on to the sample at `t`: whether the window opens at `win.from` first, between
+    /// the last sample and this one (the clock jumped over `from`: the values holding at
+    /// `from` are the last sample's), and what the sample itself does.
+    fn step(&mut self, win: Window, t: u64) -> io::Result<(bool, Step)> {
+        let mut open_at_from = false;
+        match self.t {
+            Some(prev) if t <= prev => {
+                return Err(io::Error::other(format!(
+                    "cycle {t} after cycle {prev}: time must increase"
+                )));
+            }
+            Some(prev) if !self.window_open && prev < win.from && t > win.from => {
+                open_at_from = true;
+                self.window_open = true;
+            }
+            _ => {}
+        }
+        let first = self.t.is_none();
+        self.t = Some(t);
+        let step = if !win.contains(t) {
+            Step::Take
+        } else if self.window_open && !first {
+            Step::Changes
+        } else if !self.window_open {
+            // No sample before `from` (or this one is at `from`): open here.
+            self.window_open = true;
+            Step::TakeAndOpen
+        } else {
+            Step::Take
+        };
+        Ok((open_at_from, step))
+    }
+}
+
+/// A waveform's body taking samples: the FST's (on the simulation thread) and the VCD's (on
+/// its own thread).
+trait Body {
+    fn clock(&mut self) -> &mut Clock;
+    /// Takes `values` as the last sample's without writing them.
+    fn take(&mut self, values: &[u64]);
+    /// Opens the window at `t`: `#t` and every declared value (those of the last sample).
+    fn dump_all(&mut self, t: u64) -> io::Result<()>;
+    /// Compares `values` with the last sample, takes them, and writes `#t` and the changed
+    /// declared values (nothing when none changed).
+    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()>;
+
+    /// The sample at `t`, in the window `win`.
+    fn take_sample(&mut self, win: Window, t: u64, values: &[u64]) -> io::Result<()> {
+        let (open_at_from, step) = self.clock().step(win, t)?;
+        if open_at_from {
+            self.dump_all(win.from)?;
+        }
+        match step {
+            Step::Changes => self.write_changes(t, values),
+            Step::Take => {
+                self.take(values);
+                Ok(())
+            }
+            Step::TakeAndOpen => {
+                self.take(values);
+                self.dump_all(t)
+            }
+        }
+    }
+}
+
+/// The VCD body, on its thread: the last sample's values, the window, and the formatted
+/// bytes on their way to the file.
+struct VcdBody {
+    slots: Vec<Slot>,
+    /// Signal order of the header (indices into `slots`).
+    declared: Vec<usize>,
+    /// The last sample's values (those holding now).
+    prev: Vec<u64>,
+    /// Per eight values, which of them changed (the compare's pass; reused).
+    masks: Vec<u8>,
+    window: Window,
+    clock: Clock,
+    samples: u64,
+    timestamps: u64,
+    /// The header, written first.
+    head: Vec<u8>,
+    /// The bytes on their way to the file: a fixed array filled from the front, each line
+    /// written in place (fixed-size copies, no growth check) and handed to the file once
+    /// past [`VCD_BLOCK_BYTES`]; `margin` bytes past that take the longest line.
+    out: Vec<u8>,
+    /// Bytes of `out` filled.
+    at: usize,
+    margin: usize,
+    file: File,
+    /// Bytes written so far.
+    bytes_out: u64,
+    /// The size limit in bytes (see [`set_wave_limit`]).
+    limit: u64,
+    path: PathBuf,
+    over: Arc<AtomicBool>,
+}
+
+impl VcdBody {
+    /// Takes the chunks until the channel closes; every chunk goes back empty.
+    fn run(
+        mut self,
+        rx: std::sync::mpsc::Receiver<Vec<u64>>,
+        back: std::sync::mpsc::Sender<Vec<u64>>,
+    ) -> std::result::Result<BodyEnd, BodyError> {
+        let stride = self.prev.len() + 1;
+        let head = std::mem::take(&mut self.head);
+        self.file.write_all(&head).map_err(BodyError::Io)?;
+        self.bytes_out = head.len() as u64;
+        let mut failed = None;
+        for mut chunk in rx {
+            if failed.is_none() {
+                for rec in chunk.chunks_exact(stride) {
+                    if let Err(e) = self.sample(rec[0], &rec[1..]) {
+                        failed = Some(e);
+                        break;
+                    }
+                }
+            }
+            chunk.clear();
+            // The writer may be gone (finished or dropped): nothing to hand back to.
+            let _ = back.send(chunk);
+        }
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        self.flush().map_err(BodyError::Io)?;
+        Ok(BodyEnd {
+            file: self.file,
+            timestamps: self.timestamps,
+        })
+    }
+
+    /// One sample, as `VcdWriter::sample` describes; then the size limit, looked at every
+    /// 1024 samples (bytes written plus those buffered).
+    fn sample(&mut self, t: u64, values: &[u64]) -> std::result::Result<(), BodyError> {
+        self.take_sample(self.window, t, values)
+            .map_err(BodyError::Io)?;
+        self.samples += 1;
+        if self.samples.is_multiple_of(1024) {
+            let bytes = self.bytes_out + self.at as u64;
+            if bytes > self.limit {
+                self.over.store(true, Ordering::Relaxed);
+                return Err(BodyError::Limit(format!(
+                    "{}: the waveform passed --wave-limit ({} bytes) at cycle {t}, {:.0} bytes per cycle so far; the run was stopped and nothing written. Narrow it with --vcd-window FROM:TO or --vcd-scope PATTERN, or raise --wave-limit",
+                    self.path.display(),
+                    self.limit,
+                    bytes as f64 / (t.max(1) as f64)
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Room for the next line (`margin` bytes at `at`), the bytes written out first once
+    /// they are many.
+    #[inline(always)]
+    fn room(&mut self) -> io::Result<&mut [u8]> {
+        if self.at > VCD_BLOCK_BYTES {
+            self.flush()?;
+        }
+        Ok(&mut self.out[self.at..self.at + self.margin])
+    }
+
+    /// Writes the filled bytes to the file.
+    fn flush(&mut self) -> io::Result<()> {
+        self.file.write_all(&self.out[..self.at])?;
+        self.bytes_out += self.at as u64;
+        self.at = 0;
+        Ok(())
+    }
+
+    /// Appends `bytes` (at most `margin` of them).
+    fn put(&mut self, bytes: &[u8]) -> io::Result<()> {
+        self.room()?[..bytes.len()].copy_from_slice(bytes);
+        self.at += bytes.len();
+        Ok(())
+    }
+
+    /// `#t\n`.
+    fn put_time(&mut self, t: u64) -> io::Result<()> {
+        let n = put_time(self.room()?, t);
+        self.at += n;
+        Ok(())
+    }
+
+    /// Slot `i`'s line for the value `v`.
+    #[inline(always)]
+    fn put_value(&mut self, i: usize, v: u64) -> io::Result<()> {
+        if self.at > VCD_BLOCK_BYTES {
+            self.flush()?;
+        }
+        let w = &mut self.out[self.at..self.at + self.margin];
+        self.at += put_value(w, &self.slots[i], v);
+        Ok(())
+    }
+}
+
+impl Body for VcdBody {
+    fn clock(&mut self) -> &mut Clock {
+        &mut self.clock
+    }
+
+    fn take(&mut self, values: &[u64]) {
+        self.prev.copy_from_slice(values);
+    }
+
+    /// `#t` and the values in a `$dumpvars` block.
+    fn dump_all(&mut self, t: u64) -> io::Result<()> {
+        self.timestamps += 1;
+        self.put_time(t)?;
+        self.put(b"$dumpvars\n")?;
+        for k in 0..self.declared.len() {
+            let i = self.declared[k];
+            self.put_value(i, self.prev[i])?;
+        }
+        self.put(b"$end\n")
+    }
+
+    /// In two passes: the compare alone, a mask of the changed values per eight (no branch
+    /// per value), then the lines of the changed ones.
+    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
+        let mut masks = std::mem::take(&mut self.masks);
+        let mut p8 = self.prev.chunks_exact(8);
+        let mut v8 = values.chunks_exact(8);
+        let mut mk = masks.iter_mut();
+        for ((p, v), m) in (&mut p8).zip(&mut v8).zip(&mut mk) {
+            let p: &[u64; 8] = p.try_into().expect("8");
+            let v: &[u64; 8] = v.try_into().expect("8");
+            let mut x = 0u8;
+            for k in 0..8 {
+                x |= ((p[k] != v[k]) as u8) << k;
+            }
+            *m = x;
+        }
+        if let Some(m) = mk.next() {
+            let rest = p8.remainder().iter().zip(v8.remainder());
+            *m = rest
+                .enumerate()
+                .fold(0, |x, (k, (p, v))| x | ((p != v) as u8) << k);
+        }
+        self.prev.copy_from_slice(values);
+        let mut stamped = false;
+        let mut r = Ok(());
+        'blocks: for (b, &m) in masks.iter().enumerate() {
+            let mut m = m;
+            while m != 0 {
+                let i = 8 * b + m.trailing_zeros() as usize;
+                m &= m - 1;
+                if self.slots[i].declared {
+                    if !stamped {
+                        stamped = true;
+                        self.timestamps += 1;
+                        r = self.put_time(t);
+                    }
+                    r = r.and_then(|()| self.put_value(i, values[i]));
+                    if r.is_err() {
+                        break 'blocks;
+                    }
+                }
+            }
+        }
+        self.masks = masks;
+        r
     }
 }
 
 /// One signal of the layout, with what writing its changes needs, built once.
+#[derive(Clone)]
 struct Slot {
     scope: String,
     name: String,
@@ -322,24 +642,22 @@ pub struct VcdWriter {
     tmp: Option<TempFile>,
     /// The VCD header (the `vcd` crate writes it into memory; it goes out first).
     out: Option<vcd::Writer<Vec<u8>>>,
-    /// The VCD's file writer thread.
-    body: Option<BodyThread>,
+    /// The VCD's file, until the header is written and its thread takes it.
+    file: Option<File>,
+    /// The VCD body's thread (from the header on).
+    stream: Option<VcdStream>,
     /// The FST writer instead of `out` when the path ends in `.fst`.
     fst: Option<Fst>,
     opts: VcdOptions,
     slots: Vec<Slot>,
     /// Signal order of the header (indices into `slots`).
     declared: Vec<usize>,
-    /// The last sample's values (those holding now).
+    /// The last sample's values (those holding now; FST).
     prev: Vec<u64>,
-    /// VCD body bytes not yet handed to the file.
-    buf: Vec<u8>,
-    /// The last sample's cycle (None before the first).
-    t: Option<u64>,
+    /// The last sample's cycle and the window (the FST's; the VCD's thread keeps its own).
+    clock: Clock,
     /// True once the layout is declared and the header written.
     header_done: bool,
-    /// True once the window's opening dump is written.
-    window_open: bool,
     samples: u64,
     timestamps: u64,
     /// The first error; later calls do nothing and `finish` reports it.
@@ -349,8 +667,6 @@ pub struct VcdWriter {
     usage: Option<String>,
     /// The VCD's size limit in bytes (see [`set_wave_limit`]).
     limit: u64,
-    /// VCD body bytes handed to the file so far.
-    bytes_out: u64,
 }
 
 /// Hand the VCD body to the file past this many buffered bytes.
@@ -360,12 +676,8 @@ impl VcdWriter {
     /// A writer streaming to a temporary file beside `path` (created with its directory).
     pub fn create(path: &Path, opts: VcdOptions) -> Result<Self> {
         let (tmp, f) = TempFile::create(path)?;
-        let (out, fst, body) = match WaveFormat::of(path) {
-            WaveFormat::Vcd => (
-                Some(vcd::Writer::new(Vec::new())),
-                None,
-                Some(BodyThread::new(f)),
-            ),
+        let (out, fst, file) = match WaveFormat::of(path) {
+            WaveFormat::Vcd => (Some(vcd::Writer::new(Vec::new())), None, Some(f)),
             WaveFormat::Fst => {
                 let buf = BufWriter::with_capacity(1 << 16, f);
                 let info = FstInfo {
@@ -389,22 +701,20 @@ impl VcdWriter {
             path: path.to_path_buf(),
             tmp: Some(tmp),
             out,
-            body,
+            file,
+            stream: None,
             fst,
             opts,
             slots: Vec::new(),
             declared: Vec::new(),
             prev: Vec::new(),
-            buf: Vec::with_capacity(VCD_BLOCK_BYTES + (1 << 16)),
-            t: None,
+            clock: Clock::default(),
             header_done: false,
-            window_open: false,
             samples: 0,
             timestamps: 0,
             error: None,
             usage: None,
-            limit: WAVE_LIMIT.load(std::sync::atomic::Ordering::Relaxed),
-            bytes_out: 0,
+            limit: WAVE_LIMIT.load(Ordering::Relaxed),
         })
     }
 
@@ -417,6 +727,15 @@ impl VcdWriter {
                 self.fail(format!("writing: {e}"));
             }
         }
+        // The VCD's thread saw every sample sent before any error found here, so its error
+        // comes first.
+        let mut vcd_end = None;
+        match self.stream.take().map(VcdStream::finish) {
+            Some(Ok(end)) => vcd_end = Some(end),
+            Some(Err(BodyError::Limit(m))) => self.usage = Some(m),
+            Some(Err(BodyError::Io(e))) => self.error = Some(format!("writing: {e}")),
+            None => {}
+        }
         if let Some(u) = self.usage.take() {
             // Dropping `self` removes the temporary file.
             return Err(Error::Usage(u));
@@ -425,12 +744,11 @@ impl VcdWriter {
             // Dropping `self` removes the temporary file.
             return Err(Error::Check(format!("{}: {e}", self.path.display())));
         }
-        let body = std::mem::take(&mut self.buf);
-        let done = match (self.body.take(), self.fst.take()) {
-            (Some(t), _) => (|| -> io::Result<u64> {
-                let f = t.finish(body)?;
-                crate::output::sync_file(&f)?;
-                f.metadata().map(|m| m.len())
+        let done = match (vcd_end, self.fst.take()) {
+            (Some(end), _) => (|| -> io::Result<u64> {
+                self.timestamps = end.timestamps;
+                crate::output::sync_file(&end.file)?;
+                end.file.metadata().map(|m| m.len())
             })(),
             (None, Some(Fst::Body(b))) => b.finish(),
             _ => unreachable!("finish runs once, after the header"),
@@ -532,89 +850,64 @@ impl VcdWriter {
         let mut order = Vec::new();
         declare(w, &root, &mut self.slots, &mut order)?;
         w.enddefinitions()?;
-        self.declared = order;
-        // The header goes out ahead of the body.
+        // The header goes out ahead of the body, which the body's thread writes from now on.
         let head = std::mem::take(w.writer());
-        self.buf.splice(0..0, head);
+        let margin = self
+            .slots
+            .iter()
+            .flat_map(|s| s.text_lines.iter().map(Vec::len))
+            .fold(LINE, usize::max);
+        self.stream = Some(VcdStream::start(VcdBody {
+            slots: self.slots.clone(),
+            declared: order.clone(),
+            prev: vec![0; self.slots.len()],
+            masks: vec![0; self.slots.len().div_ceil(8)],
+            window: self.opts.window,
+            clock: Clock::default(),
+            samples: 0,
+            timestamps: 0,
+            head,
+            out: vec![0; VCD_BLOCK_BYTES + 1 + margin],
+            at: 0,
+            margin,
+            file: self.file.take().expect("the VCD's file until the header"),
+            bytes_out: 0,
+            limit: self.limit,
+            path: self.path.clone(),
+            over: Arc::new(AtomicBool::new(false)),
+        }));
+        self.declared = order;
         Ok(())
     }
+}
 
-    /// `#t` and every declared value (those of the last sample) in a `$dumpvars` block;
-    /// opens the window.
+/// The FST's body (the VCD's is its thread's, `VcdBody`).
+impl Body for VcdWriter {
+    fn clock(&mut self) -> &mut Clock {
+        &mut self.clock
+    }
+
+    fn take(&mut self, values: &[u64]) {
+        self.prev.copy_from_slice(values);
+    }
+
+    /// FST has no `$dumpvars`: the first time's values are the initial state.
     fn dump_all(&mut self, t: u64) -> io::Result<()> {
-        self.window_open = true;
         self.timestamps += 1;
-        if let Some(Fst::Body(b)) = &mut self.fst {
-            return b.dump_all(t, &self.declared, &self.prev);
-        }
-        let buf = &mut self.buf;
-        put_time(buf, t);
-        buf.extend_from_slice(b"$dumpvars\n");
-        for &i in &self.declared {
-            put_value(buf, &self.slots[i], self.prev[i]);
-        }
-        buf.extend_from_slice(b"$end\n");
-        self.drain_buf()
+        let Some(Fst::Body(b)) = &mut self.fst else {
+            unreachable!("the VCD's body is its thread's")
+        };
+        b.dump_all(t, &self.declared, &self.prev)
     }
 
-    /// Hands the buffered VCD body to the file once it is large.
-    fn drain_buf(&mut self) -> io::Result<()> {
-        if self.buf.len() >= VCD_BLOCK_BYTES {
-            self.bytes_out += self.buf.len() as u64;
-            let t = self.body.as_mut().expect("open until finish");
-            t.send(&mut self.buf)?;
+    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
+        let Some(Fst::Body(b)) = &mut self.fst else {
+            unreachable!("the VCD's body is its thread's")
+        };
+        if b.write_changes(t, &mut self.prev, values)? {
+            self.timestamps += 1;
         }
         Ok(())
-    }
-
-    /// Compares `values` with the last sample in one pass, takes them, and writes `#t` and
-    /// the changed declared values (nothing when none changed).
-    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
-        let slots = &self.slots;
-        if let Some(Fst::Body(b)) = &mut self.fst {
-            if b.write_changes(t, &mut self.prev, values)? {
-                self.timestamps += 1;
-            }
-            return Ok(());
-        }
-        let buf = &mut self.buf;
-        let mut stamped = false;
-        // Eight values at a time: a mask of the changed ones, then only those.
-        let n = values.len();
-        let whole = n - n % 8;
-        let mut base = 0;
-        while base < n {
-            let w = if base < whole { 8 } else { n - base };
-            let mut m = 0u32;
-            if w == 8 {
-                let p: &[u64; 8] = self.prev[base..base + 8].try_into().expect("8");
-                let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
-                for k in 0..8 {
-                    m |= ((p[k] != v[k]) as u32) << k;
-                }
-            } else {
-                for k in 0..w {
-                    m |= ((self.prev[base + k] != values[base + k]) as u32) << k;
-                }
-            }
-            while m != 0 {
-                let i = base + m.trailing_zeros() as usize;
-                m &= m - 1;
-                let v = values[i];
-                self.prev[i] = v;
-                let s = &slots[i];
-                if s.declared {
-                    if !stamped {
-                        stamped = true;
-                        self.timestamps += 1;
-                        put_time(buf, t);
-                    }
-                    put_value(buf, s, v);
-                }
-            }
-            base += 8;
-        }
-        self.drain_buf()
     }
 }
 
@@ -689,58 +982,31 @@ impl Probe for VcdWriter {
             self.fail(msg);
             return;
         }
-        let win = self.opts.window;
-        let r = (|| -> io::Result<()> {
-            match self.t {
-                Some(prev) if t <= prev => {
-                    return Err(io::Error::other(format!(
-                        "cycle {t} after cycle {prev}: time must increase"
-                    )));
-                }
-                // The window opens between two samples (the clock jumped over `from`): the
-                // values holding at `from` are those of the previous sample.
-                Some(prev) if !self.window_open && prev < win.from && t > win.from => {
-                    self.dump_all(win.from)?;
-                }
-                _ => {}
+        if let Some(s) = &mut self.stream {
+            // The VCD: its thread compares and writes (`VcdBody`).
+            if let Some(prev) = self.clock.t.filter(|&p| t <= p) {
+                self.fail(format!(
+                    "writing: cycle {t} after cycle {prev}: time must increase"
+                ));
+                return;
             }
-            let first = self.t.is_none();
-            self.t = Some(t);
+            self.clock.t = Some(t);
             self.samples += 1;
-            if win.contains(t) && self.window_open && !first {
-                self.write_changes(t, values)?;
-            } else {
-                self.prev.copy_from_slice(values);
-                if win.contains(t) && !self.window_open {
-                    // No sample before `from` (or this one is at `from`): open here.
-                    self.dump_all(t)?;
-                }
-            }
-            Ok(())
-        })();
-        if let Err(e) = r {
-            self.fail(format!("writing: {e}"));
+            s.push(t, values);
             return;
         }
-        // The size limit, looked at every 1024 samples (bytes handed to the file, plus the
-        // buffer not yet handed over).
-        if self.samples.is_multiple_of(1024) {
-            let bytes = self.bytes_out + self.buf.len() as u64;
-            if bytes > self.limit {
-                let msg = format!(
-                    "{}: the waveform passed --wave-limit ({} bytes) at cycle {t}, {:.0} bytes per cycle so far; the run was stopped and nothing written. Narrow it with --vcd-window FROM:TO or --vcd-scope PATTERN, or raise --wave-limit",
-                    self.path.display(),
-                    self.limit,
-                    bytes as f64 / (t.max(1) as f64)
-                );
-                self.usage = Some(msg.clone());
-                self.fail(msg);
-            }
+        match self.take_sample(self.opts.window, t, values) {
+            Ok(()) => self.samples += 1,
+            Err(e) => self.fail(format!("writing: {e}")),
         }
     }
 
     fn stop(&self) -> bool {
         self.usage.is_some()
+            || self
+                .stream
+                .as_ref()
+                .is_some_and(|s| s.over.load(Ordering::Relaxed))
     }
 }
 
@@ -898,26 +1164,24 @@ static BIN8: [[u8; 8]; 256] = {
     t
 };
 
-/// `#t\n`.
-fn put_time(buf: &mut Vec<u8>, t: u64) {
-    buf.push(b'#');
-    put_decimal(buf, t);
-    buf.push(b'\n');
-}
-
-/// `t` in decimal.
-fn put_decimal(buf: &mut Vec<u8>, mut t: u64) {
-    let mut d = [0u8; 20];
-    let mut n = 0;
+/// `#t\n` at the front of `w` (22 bytes or more); returns its length.
+fn put_time(w: &mut [u8], mut t: u64) -> usize {
+    let mut d = [0u8; 22];
+    d[21] = b'\n';
+    let mut at = 21;
     loop {
-        d[19 - n] = b'0' + (t % 10) as u8;
-        n += 1;
+        at -= 1;
+        d[at] = b'0' + (t % 10) as u8;
         t /= 10;
         if t == 0 {
             break;
         }
     }
-    buf.extend_from_slice(&d[20 - n..]);
+    at -= 1;
+    d[at] = b'#';
+    let n = 22 - at;
+    w[..n].copy_from_slice(&d[at..]);
+    n
 }
 
 /// Every byte's digits without leading zeros ("0" for zero), left-aligned and zero-padded
@@ -941,43 +1205,48 @@ static BIN8_TRIM: [([u8; 8], usize); 256] = {
     t
 };
 
-/// Appends `bytes`, of which the first `n` count (one fixed-size copy, then a cut).
-#[inline(always)]
-fn put8(buf: &mut Vec<u8>, bytes: &[u8; 8], n: usize) {
-    buf.extend_from_slice(bytes);
-    let l = buf.len();
-    buf.truncate(l - 8 + n);
-}
+/// Bytes of the longest vector line (`b`, 64 digits, ' ', a 7-character id, '\n'), with
+/// room for the last fixed-size copies.
+const LINE: usize = 80;
 
-/// One VCD value change line, as the `vcd` crate writes it: `0!`/`1!` for a one-bit wire,
-/// `b<bits> !` for a vector (leading zeros dropped, which VCD zero-extends), `s<text> !`.
-#[inline]
-fn put_value(buf: &mut Vec<u8>, s: &Slot, v: u64) {
+/// One VCD value change line, as the `vcd` crate writes it, at the front of `w` (at least
+/// [`LINE`] bytes, and the slot's longest text line); returns its length: `0!`/`1!` for a
+/// one-bit wire, `b<bits> !` for a vector (leading zeros dropped, which VCD zero-extends),
+/// `s<text> !`. Digits go eight at a time (a byte's, from a table) and the id as one 8-byte
+/// copy; bytes past the line's end are left as they fall.
+#[inline(always)]
+fn put_value(w: &mut [u8], s: &Slot, v: u64) -> usize {
     match s.kind {
         SignalKind::Text => {
             if let Some(l) = s.text_lines.get(v as usize) {
-                buf.extend_from_slice(l);
-            } else {
-                // Not a state of the declared list: shown as "-".
-                buf.extend_from_slice(b"s- ");
-                put8(buf, &s.id_nl, s.id_nl_len);
+                w[..l.len()].copy_from_slice(l);
+                return l.len();
             }
+            // Not a state of the declared list: shown as "-".
+            w[..3].copy_from_slice(b"s- ");
+            w[3..11].copy_from_slice(&s.id_nl);
+            3 + s.id_nl_len
         }
         _ if s.width == 1 => {
-            buf.push(b'0' + (v & 1) as u8);
-            put8(buf, &s.id_nl, s.id_nl_len);
+            w[0] = b'0' + (v & 1) as u8;
+            w[1..9].copy_from_slice(&s.id_nl);
+            1 + s.id_nl_len
         }
         _ => {
-            buf.push(b'b');
+            let w: &mut [u8; LINE] = (&mut w[..LINE]).try_into().expect("LINE bytes");
+            w[0] = b'b';
             let n = (64 - v.leading_zeros()).max(1) as usize;
             let top = (n - 1) / 8;
             let (first, len) = &BIN8_TRIM[((v >> (8 * top)) & 0xFF) as usize];
-            put8(buf, first, *len);
+            w[1..9].copy_from_slice(first);
+            let mut at = 1 + len;
             for k in (0..top).rev() {
-                buf.extend_from_slice(&BIN8[((v >> (8 * k)) & 0xFF) as usize]);
+                w[at..at + 8].copy_from_slice(&BIN8[((v >> (8 * k)) & 0xFF) as usize]);
+                at += 8;
             }
-            buf.push(b' ');
-            put8(buf, &s.id_nl, s.id_nl_len);
+            w[at] = b' ';
+            w[at + 1..at + 9].copy_from_slice(&s.id_nl);
+            at + 1 + s.id_nl_len
         }
     }
 }
@@ -1074,9 +1343,19 @@ mod tests {
             names: Vec::new(),
             fst_id: None,
         };
-        for v in [0u64, 1, 2, 0xFF, 0x100, 0x1234_5678, 0xFF_FFFF_FFFF] {
-            let mut buf = Vec::new();
-            put_value(&mut buf, &slot, v);
+        let mut w = [0u8; LINE];
+        for v in [
+            0u64,
+            1,
+            2,
+            0xFF,
+            0x100,
+            0x1234_5678,
+            0xFF_FFFF_FFFF,
+            u64::MAX,
+        ] {
+            let n = put_value(&mut w, &slot, v);
+            let buf = w[..n].to_vec();
             let mut w = vcd::Writer::new(Vec::new());
             let n = (64 - v.leading_zeros()).max(1);
             let bits = (0..n).rev().map(|k| {
@@ -1090,13 +1369,14 @@ mod tests {
             assert_eq!(buf, w.writer().clone(), "{v:#x}");
         }
         slot.width = 1;
-        let mut buf = Vec::new();
-        put_value(&mut buf, &slot, 1);
-        assert_eq!(buf, b"1%+\n");
-        let mut buf = Vec::new();
-        put_time(&mut buf, 1234567);
-        put_time(&mut buf, 0);
-        assert_eq!(buf, b"#1234567\n#0\n");
+        let n = put_value(&mut w, &slot, 1);
+        assert_eq!(&w[..n], b"1%+\n");
+        let n = put_time(&mut w, 1234567);
+        assert_eq!(&w[..n], b"#1234567\n");
+        let n = put_time(&mut w, 0);
+        assert_eq!(&w[..n], b"#0\n");
+        let n = put_time(&mut w, u64::MAX);
+        assert_eq!(&w[..n], format!("#{}\n", u64::MAX).as_bytes());
     }
 
     /// The window opens with the values holding at `from`, even between two samples.
@@ -1142,6 +1422,38 @@ mod tests {
             w.sample(0, &[1]);
         }
         assert_eq!(dir.path().read_dir().unwrap().count(), 0);
+    }
+
+    /// The writer's thread finds the size limit at the same sample whatever its timing:
+    /// the run stops (`stop`) soon after, and the error names that sample's cycle.
+    #[test]
+    fn the_size_limit_is_found_at_the_same_sample_every_time() {
+        let dir = tempfile::tempdir().unwrap();
+        for _ in 0..3 {
+            let p = dir.path().join("l.vcd");
+            let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
+            w.limit = 1000;
+            w.declare(&[decl("m", "x", 32, HwKind::Bits)]);
+            let mut sent = 0;
+            for t in 0..1_000_000u64 {
+                if w.stop() {
+                    break;
+                }
+                w.sample(t, &[t.wrapping_mul(0x9E37_79B9) & 0xFFFF_FFFF]);
+                sent += 1;
+            }
+            assert!((1024..1_000_000).contains(&sent), "{sent} samples");
+            match w.finish() {
+                Err(Error::Usage(m)) => {
+                    assert!(
+                        m.contains("--wave-limit (1000 bytes) at cycle 1023,"),
+                        "{m}"
+                    )
+                }
+                other => panic!("{:?}", other.map(|s| s.bytes)),
+            }
+            assert_eq!(dir.path().read_dir().unwrap().count(), 0);
+        }
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //! ([`Machine::walk`]) visits them in the waveform's signal order: on the first sample it
 //! declares the layout to the [`Probe`] (scope names built once), on every sample it fills a
 //! flat value array, position = signal id, handed to the probe whole — no string is touched
-//! per cycle and nothing is allocated.
+//! per cycle and nothing is allocated. The array keeps the last sample's values, so an empty
+//! ICU's stages (all zero) are skipped when it was empty at the last sample too.
 
 use super::links::{probe_link, Section};
 use super::Machine;
@@ -17,6 +18,13 @@ pub(super) trait Sink {
     fn text(&mut self, scope: &str, name: &'static str, names: &'static [&'static str], index: u64);
     /// A signed fixed-point value (raw) with `frac` fractional bits in `width` bits.
     fn fixed(&mut self, scope: &str, name: &'static str, width: u32, frac: u32, raw: i64);
+    /// The next `n` signals are cluster `c`'s ICU stages, all zero while `idle` (the ICU is
+    /// empty): a filler skips them, leaving them as they are, when the ICU was empty at the
+    /// last sample too. True when skipped (the walk then reports none of them).
+    fn skip_idle_icu(&mut self, c: usize, idle: bool, n: usize) -> bool {
+        let _ = (c, idle, n);
+        false
+    }
 }
 
 /// The low `width` bits.
@@ -58,34 +66,81 @@ impl Sink for Declare {
     }
 }
 
-/// Fills the value array in signal order.
+/// Values a [`Fill`] holds: layouts up to this size (the paper's machine has 435 signals,
+/// 16 clusters about 1,700) are filled without a bound check per value; larger ones through
+/// [`FillChecked`].
+const FILL_CAP: usize = 1 << 12;
+
+/// Fills the value array in signal order, over the last sample's values. The position wraps
+/// at the array's size, so no put can panic (the compiler then keeps the position in a
+/// register over a run of puts and drops the bound checks); `Machine::probe` checks once per
+/// sample that the walk filled exactly the layout, which is never larger than the array.
 struct Fill<'a> {
-    values: &'a mut [u64],
+    values: &'a mut [u64; FILL_CAP],
     pos: usize,
+    /// Per cluster: its ICU was empty at the last sample.
+    icu_idle: &'a mut [bool],
 }
 
 impl Fill<'_> {
     #[inline(always)]
     fn put(&mut self, v: u64) {
-        self.values[self.pos] = v;
+        self.values[self.pos % FILL_CAP] = v;
         self.pos += 1;
     }
 }
 
-impl Sink for Fill<'_> {
+/// Fills a value array of any size (a layout past [`FILL_CAP`]) as [`Fill`] does, a bound
+/// check per value.
+struct FillChecked<'a> {
+    values: &'a mut [u64],
+    pos: usize,
+    icu_idle: &'a mut [bool],
+}
+
+impl FillChecked<'_> {
     #[inline(always)]
-    fn bits(&mut self, _: &str, _: &'static str, width: u32, value: u64) {
-        self.put(value & mask(width));
-    }
-    #[inline(always)]
-    fn text(&mut self, _: &str, _: &'static str, _: &'static [&'static str], index: u64) {
-        self.put(index);
-    }
-    #[inline(always)]
-    fn fixed(&mut self, _: &str, _: &'static str, width: u32, _: u32, raw: i64) {
-        self.put(raw as u64 & mask(width));
+    fn put(&mut self, v: u64) {
+        if let Some(x) = self.values.get_mut(self.pos) {
+            *x = v;
+        }
+        self.pos += 1;
     }
 }
+
+/// The [`Sink`] of a filler: every kind of signal is one value put in order.
+macro_rules! fill_sink {
+    ($t:ident) => {
+        impl Sink for $t<'_> {
+            #[inline(always)]
+            fn bits(&mut self, _: &str, _: &'static str, width: u32, value: u64) {
+                self.put(value & mask(width));
+            }
+            #[inline(always)]
+            fn text(&mut self, _: &str, _: &'static str, _: &'static [&'static str], index: u64) {
+                self.put(index);
+            }
+            #[inline(always)]
+            fn fixed(&mut self, _: &str, _: &'static str, width: u32, _: u32, raw: i64) {
+                self.put(raw as u64 & mask(width));
+            }
+            #[inline(always)]
+            fn skip_idle_icu(&mut self, c: usize, idle: bool, n: usize) -> bool {
+                let Some(was) = self.icu_idle.get_mut(c) else {
+                    return false;
+                };
+                let skip = idle && *was;
+                *was = idle;
+                if skip {
+                    self.pos += n;
+                }
+                skip
+            }
+        }
+    };
+}
+fill_sink!(Fill);
+fill_sink!(FillChecked);
 
 impl Machine<'_> {
     /// Reports every unit's signals at the current cycle to `p`: the layout first (once per
@@ -96,19 +151,42 @@ impl Machine<'_> {
             let mut d = Declare(Vec::new());
             self.walk(&sc, &mut d);
             p.declare(&d.0);
-            self.probe_values = vec![0; d.0.len()];
-            self.scopes = Some(sc);
+            let n = d.0.len();
+            self.probe_values = vec![0; n.max(FILL_CAP)];
+            self.scopes = Some(Scopes {
+                signals: n,
+                icu_idle: vec![false; self.clusters.len()],
+                ..sc
+            });
         }
-        let sc = self.scopes.take().expect("built above");
+        let mut sc = self.scopes.take().expect("built above");
         let mut values = std::mem::take(&mut self.probe_values);
-        let mut f = Fill {
-            values: &mut values,
-            pos: 0,
+        let mut icu_idle = std::mem::take(&mut sc.icu_idle);
+        let n = sc.signals;
+        let filled = match <&mut [u64; FILL_CAP]>::try_from(&mut values[..]) {
+            Ok(values) if n <= FILL_CAP => {
+                let mut f = Fill {
+                    values,
+                    pos: 0,
+                    icu_idle: &mut icu_idle,
+                };
+                self.walk(&sc, &mut f);
+                f.pos
+            }
+            _ => {
+                let mut f = FillChecked {
+                    values: &mut values,
+                    pos: 0,
+                    icu_idle: &mut icu_idle,
+                };
+                self.walk(&sc, &mut f);
+                f.pos
+            }
         };
-        self.walk(&sc, &mut f);
-        debug_assert_eq!(f.pos, values.len(), "the walk's layout never changes");
-        p.sample(self.cycle, &values);
+        assert_eq!(filled, n, "the walk's layout never changes");
+        p.sample(self.cycle, &values[..n]);
         self.probe_values = values;
+        sc.icu_idle = icu_idle;
         self.scopes = Some(sc);
     }
 
@@ -206,15 +284,21 @@ impl Machine<'_> {
                 }
             }
             p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
-            for n in 0..cl.icu.depth() {
-                let st = cl.icu.stage_job(n);
-                let ss = &cs.stages[n];
-                p.bits(ss, "valid", 1, st.is_some() as u64);
-                p.bits(ss, "ray", 32, st.map_or(0, |(j, _)| j.ray as u64));
-                p.bits(ss, "patch", 24, st.map_or(0, |(j, _)| j.patch as u64));
-                // t is shown in the result stage only (`stage_job` gives it there alone).
-                let t = st.and_then(|(_, t)| t).unwrap_or(0);
-                p.fixed(ss, "t", t_bits, t_frac, t);
+            // Four signals a stage (the count `skip_idle_icu` is told), all zero when empty.
+            let depth = cl.icu.depth();
+            if !p.skip_idle_icu(c, cl.icu.is_empty(), 4 * depth) {
+                for n in 0..depth {
+                    // t is shown in the result stage only (`stage_job` gives it there alone).
+                    let (valid, ray, patch, t) = match cl.icu.stage_job(n) {
+                        Some((j, t)) => (1, j.ray as u64, j.patch as u64, t.unwrap_or(0)),
+                        None => (0, 0, 0, 0),
+                    };
+                    let ss = &cs.stages[n];
+                    p.bits(ss, "valid", 1, valid);
+                    p.bits(ss, "ray", 32, ray);
+                    p.bits(ss, "patch", 24, patch);
+                    p.fixed(ss, "t", t_bits, t_frac, t);
+                }
             }
         }
     }
@@ -227,6 +311,10 @@ pub(super) struct Scopes {
     balancer: String,
     arbiter: String,
     clusters: Vec<ClusterScopes>,
+    /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
+    signals: usize,
+    /// Per cluster: its ICU was empty at the last sample.
+    icu_idle: Vec<bool>,
 }
 
 #[derive(Clone, Debug)]
@@ -262,6 +350,8 @@ impl Scopes {
                     }
                 })
                 .collect(),
+            signals: 0,
+            icu_idle: Vec::new(),
         }
     }
 }
