@@ -220,8 +220,12 @@ impl Links {
     }
 }
 
-/// Reports a link's registered valid, ready, occupancy and transfer count.
+/// Reports a link's registered valid, ready, occupancy and transfer count (a filler skips
+/// them when no edge touched the link since the last sample).
 pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>) {
+    if p.skip_unchanged_link(l.take_changed()) {
+        return;
+    }
     p.bits(scope, "valid", 1, l.valid() as u64);
     p.bits(scope, "ready", 1, l.ready() as u64);
     p.bits(scope, "occupancy", 16, l.len() as u64);

@@ -25,7 +25,17 @@ pub(super) trait Sink {
         let _ = (c, idle, n);
         false
     }
+    /// The next [`LINK_SIGNALS`] signals are a link's, `changed` false when no edge touched
+    /// it since the last sample (`Link::take_changed`): a filler skips them, leaving the
+    /// last sample's values, once it has filled the array at least once. True when skipped.
+    fn skip_unchanged_link(&mut self, changed: bool) -> bool {
+        let _ = changed;
+        false
+    }
 }
+
+/// Signals a link shows (`links::probe_link`): valid, ready, occupancy, transfers.
+pub(super) const LINK_SIGNALS: usize = 4;
 
 /// The low `width` bits.
 fn mask(width: u32) -> u64 {
@@ -80,6 +90,8 @@ struct Fill<'a> {
     pos: usize,
     /// Per cluster: its ICU was empty at the last sample.
     icu_idle: &'a mut [bool],
+    /// The array holds a whole earlier sample (unchanged links may be skipped).
+    filled_before: bool,
 }
 
 impl Fill<'_> {
@@ -96,6 +108,7 @@ struct FillChecked<'a> {
     values: &'a mut [u64],
     pos: usize,
     icu_idle: &'a mut [bool],
+    filled_before: bool,
 }
 
 impl FillChecked<'_> {
@@ -136,6 +149,14 @@ macro_rules! fill_sink {
                 }
                 skip
             }
+            #[inline(always)]
+            fn skip_unchanged_link(&mut self, changed: bool) -> bool {
+                let skip = !changed && self.filled_before;
+                if skip {
+                    self.pos += LINK_SIGNALS;
+                }
+                skip
+            }
         }
     };
 }
@@ -156,6 +177,7 @@ impl Machine<'_> {
             self.scopes = Some(Scopes {
                 signals: n,
                 icu_idle: vec![false; self.clusters.len()],
+                filled: false,
                 ..sc
             });
         }
@@ -169,6 +191,7 @@ impl Machine<'_> {
                     values,
                     pos: 0,
                     icu_idle: &mut icu_idle,
+                    filled_before: sc.filled,
                 };
                 self.walk(&sc, &mut f);
                 f.pos
@@ -178,12 +201,14 @@ impl Machine<'_> {
                     values: &mut values,
                     pos: 0,
                     icu_idle: &mut icu_idle,
+                    filled_before: sc.filled,
                 };
                 self.walk(&sc, &mut f);
                 f.pos
             }
         };
         assert_eq!(filled, n, "the walk's layout never changes");
+        sc.filled = true;
         p.sample(self.cycle, &values[..n]);
         self.probe_values = values;
         sc.icu_idle = icu_idle;
@@ -315,6 +340,8 @@ pub(super) struct Scopes {
     signals: usize,
     /// Per cluster: its ICU was empty at the last sample.
     icu_idle: Vec<bool>,
+    /// The value array holds a whole sample (after the first fill).
+    filled: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -352,6 +379,7 @@ impl Scopes {
                 .collect(),
             signals: 0,
             icu_idle: Vec::new(),
+            filled: false,
         }
     }
 }

@@ -138,7 +138,8 @@ impl Machine<'_> {
                     results: Links::of_cluster(&mut l.results, k, c),
                     remote: &mut l.remote_out[c],
                 };
-                cl.icu.tick(&mut io, self.rays, &scene.patches, &scene.formats);
+                cl.icu
+                    .tick(&mut io, self.rays, &scene.patches, &scene.formats);
             }
         }
     }

@@ -471,7 +471,9 @@ mod tests {
         let mut shown = vec![];
         let (_, out) = one_job(&mut icu, &rays, &patches, &f, n + 1, |icu, k| {
             if k < n {
-                let st = icu.stage(k, &rays, &patches, &f).expect("the job is in stage k");
+                let st = icu
+                    .stage(k, &rays, &patches, &f)
+                    .expect("the job is in stage k");
                 assert!((0..n).all(|j| j == k || icu.stage(j, &rays, &patches, &f).is_none()));
                 shown.push(st.value);
             }
