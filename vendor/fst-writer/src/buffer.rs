@@ -1,3 +1,4 @@
+//! The signal buffer: values, per-signal change chains and time table of the open section.
 // Copyright 2024 Cornell University
 // released under BSD 3-Clause License
 // author: Kevin Laeufer <laeufer@cornell.edu>

@@ -1,7 +1,13 @@
+//! The FST file format's blocks: header, hierarchy, geometry, value change sections.
 // Copyright 2023 The Regents of the University of California
 // Copyright 2024 Cornell University
 // released under BSD 3-Clause License
 // author: Kevin Laeufer <laeufer@cornell.edu>
+//
+// shellsim: zlib for value-change chains and frames (`FstCompression`, pack type 'Z'), a
+// `Section` taken out of the buffer whole (so a writer thread can write it), section
+// offsets counted rather than asked of the writer, `write_variant_u64` without allocation,
+// `write_multi_bit_signal` packing whole bytes. See README.md.
 
 use crate::FstWriteError::InvalidCharacter;
 use crate::{

@@ -1,6 +1,9 @@
+//! fst-writer (shellsim's patched copy of 0.3.2): writes waveforms in GTKWave's FST format.
 // Copyright 2024 Cornell University
 // released under BSD 3-Clause License
 // author: Kevin Laeufer <laeufer@cornell.edu>
+//
+// shellsim: errors `NotU64` and `WriterThread`, and `FstCompression` exported. See README.md.
 
 mod buffer;
 mod io;

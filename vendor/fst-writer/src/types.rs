@@ -1,3 +1,4 @@
+//! Public types: file info, signal ids and types, scope and variable kinds.
 // Copyright 2024 Cornell University
 // released under BSD 3-Clause License
 // author: Kevin Laeufer <laeufer@cornell.edu>

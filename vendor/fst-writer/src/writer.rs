@@ -1,3 +1,4 @@
+//! The header and body writers, and the body's optional writer thread.
 // Copyright 2024 Cornell University
 // released under BSD 3-Clause License
 // author: Kevin Laeufer <laeufer@cornell.edu>
