@@ -460,3 +460,37 @@ fn the_waveform_shows_descriptors_their_expansion_and_splits() {
     .unwrap();
     assert!(!plain.names.iter().any(|n| n.contains("descriptor")));
 }
+
+#[test]
+fn a_layout_past_the_probes_fill_array_reports_every_signal() {
+    // 48 clusters declare more signals than the probe's unchecked fill holds (4,096), so the
+    // checked fill runs; the counters it reports end at the run's statistics.
+    let mut c = config("paper");
+    c.machine.clusters = 48;
+    let scene = common::load("cornell.json");
+    let mut log = ChangeLog::new();
+    let out = run(
+        &scene,
+        Path::new("cornell.json"),
+        &c,
+        &spec(),
+        Some(&mut log),
+    )
+    .unwrap();
+    assert!(log.names.len() > 4096, "{} signals", log.names.len());
+    let last = log.last.as_ref().expect("sampled");
+    let value = |name: &str| {
+        let i = log.names.iter().position(|n| n == name).expect(name);
+        last[i]
+    };
+    assert_eq!(value("machine.memory.grants"), out.stats.memory.grants);
+    for (k, cl) in out.stats.clusters.iter().enumerate() {
+        let base = format!("machine.cluster_{k}");
+        assert_eq!(value(&format!("{base}.icu.jobs_in")), cl.icu.jobs_in);
+        for (j, ctu) in cl.ctus.iter().enumerate() {
+            let issued = value(&format!("{base}.ctu_{j}.jobs_issued"));
+            assert_eq!(issued, ctu.jobs_issued, "{base}.ctu_{j}");
+        }
+    }
+    assert!(out.stats.jobs > 0);
+}

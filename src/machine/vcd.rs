@@ -15,7 +15,7 @@
 //! 1234), whereas with 1 ps long runs would be shown scaled to ns or µs.
 //!
 //! **Changes only.** The probe declares its signals once (position = id); each sample is one
-//! flat value array, compared with the last in one pass. The writer writes a `#t` line only
+//! flat value array, compared with the last (one pass of eight-value change masks). The writer writes a `#t` line only
 //! when something declared changed at cycle t, and formats the change lines by hand (the
 //! same bytes as the `vcd` crate's writer, which still writes the header). The machine probes after every clock edge
 //! it simulates; cycles skipped by its cycle jump change nothing, so the waveform is the same.
@@ -25,10 +25,13 @@
 //! A scope filter (a glob with `*`/`?`, or else a substring, on the full dotted scope):
 //! signals outside it are not declared at all.
 //!
-//! **Output.** Streamed through a `BufWriter` into a temporary file beside the target, renamed
-//! into place by [`VcdWriter::finish`] (dropping an unfinished writer deletes it), so memory
-//! stays bounded on long runs and a failed run leaves no half-written VCD. The header holds no
-//! date, so the same run gives a byte-identical file.
+//! **Output.** A VCD's samples go to the writer's own thread, which compares, formats and
+//! writes them in the order sent (`VcdStream`; the simulation thread only copies its value
+//! array); an FST is written on the simulation thread through a `BufWriter`. Either streams
+//! into a temporary file beside the target, renamed into place by [`VcdWriter::finish`]
+//! (dropping an unfinished writer deletes it), so memory stays bounded on long runs and a
+//! failed run leaves no half-written file. The header holds no date, so the same run gives a
+//! byte-identical file whatever the thread's timing.
 
 use super::fst::{fst_err, FstBody, FstHandle};
 use crate::error::{Error, Result};
@@ -633,8 +636,9 @@ struct Slot {
 /// `Machine::run` as the probe, then call [`VcdWriter::finish`].
 ///
 /// Each sample is one flat value array (position = signal id, fixed by the layout the probe
-/// declared once); it is compared with the previous sample in one pass, and the changed
-/// values' lines are formatted by hand into a buffer written out in large blocks.
+/// declared once). A VCD's samples are queued to its thread (`VcdStream`, `VcdBody`), which
+/// compares each with the previous one and formats the changed values' lines by hand into a
+/// block written out whole; an FST's are compared and handed to `fst-writer` here.
 pub struct VcdWriter {
     path: PathBuf,
     /// The temporary file beside `path`; dropped unfinished, it is removed, so no
