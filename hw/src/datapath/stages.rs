@@ -250,11 +250,10 @@ pub fn intersect(
     f: &Formats,
     exc: &mut Exceptions,
 ) -> Option<FixedHit> {
-    let t = translate(r, p, f, exc);
-    let s = shear(r, &t, f);
-    let e = edges(&s);
-    let q = interpolate(&s, &e);
-    divide(&q, f, exc).map(|t| FixedHit { patch: p.id, t })
+    let mut at_divide = Exceptions::default();
+    let t = intersect_t(r, p, f, exc, &mut at_divide);
+    exc.add(&at_divide);
+    t.map(|t| FixedHit { patch: p.id, t })
 }
 
 /// All stages for one job, as the ICU evaluates it on entry: t raw (or no hit), with the
