@@ -379,9 +379,8 @@ impl Clock {
 /// A waveform's body taking samples: the FST's (on the simulation thread) and the VCD's (on
 /// its own thread).
 trait Body {
-    fn clock(&mut self) -> &mut Clock;
-    /// Takes `values` as the last sample's without writing them.
-    fn take(&mut self, values: &[u64]);
+    /// The window clock and the last sample's values.
+    fn state(&mut self) -> (&mut Clock, &mut [u64]);
     /// Opens the window at `t`: `#t` and every declared value (those of the last sample).
     fn dump_all(&mut self, t: u64) -> io::Result<()>;
     /// Compares `values` with the last sample, takes them, and writes `#t` and the changed
@@ -390,18 +389,18 @@ trait Body {
 
     /// The sample at `t`, in the window `win`.
     fn take_sample(&mut self, win: Window, t: u64, values: &[u64]) -> io::Result<()> {
-        let (open_at_from, step) = self.clock().step(win, t)?;
+        let (open_at_from, step) = self.state().0.step(win, t)?;
         if open_at_from {
             self.dump_all(win.from)?;
         }
         match step {
             Step::Changes => self.write_changes(t, values),
             Step::Take => {
-                self.take(values);
+                self.state().1.copy_from_slice(values);
                 Ok(())
             }
             Step::TakeAndOpen => {
-                self.take(values);
+                self.state().1.copy_from_slice(values);
                 self.dump_all(t)
             }
         }
@@ -541,12 +540,8 @@ impl VcdBody {
 }
 
 impl Body for VcdBody {
-    fn clock(&mut self) -> &mut Clock {
-        &mut self.clock
-    }
-
-    fn take(&mut self, values: &[u64]) {
-        self.prev.copy_from_slice(values);
+    fn state(&mut self) -> (&mut Clock, &mut [u64]) {
+        (&mut self.clock, &mut self.prev)
     }
 
     /// `#t` and the values in a `$dumpvars` block.
@@ -887,12 +882,8 @@ impl VcdWriter {
 
 /// The FST's body (the VCD's is its thread's, `VcdBody`).
 impl Body for VcdWriter {
-    fn clock(&mut self) -> &mut Clock {
-        &mut self.clock
-    }
-
-    fn take(&mut self, values: &[u64]) {
-        self.prev.copy_from_slice(values);
+    fn state(&mut self) -> (&mut Clock, &mut [u64]) {
+        (&mut self.clock, &mut self.prev)
     }
 
     /// FST has no `$dumpvars`: the first time's values are the initial state.
