@@ -25,6 +25,29 @@ use std::collections::VecDeque;
 /// The balancer's end of its links (rule 7).
 const ME: UnitId = UnitId::Balancer;
 
+/// Moves each cluster's front entry of `queues` that has arrived by `now` onto its link, if
+/// the link is ready (one per cycle per cluster); `queued` counts the entries of all of
+/// `queues`, so empty queues are not walked.
+fn deliver<T: Copy>(
+    now: u64,
+    queues: &mut [VecDeque<(u64, T)>],
+    links: &mut [Link<T>],
+    queued: &mut usize,
+) {
+    if *queued == 0 {
+        return;
+    }
+    for (q, link) in queues.iter_mut().zip(links) {
+        if let Some(&(at, x)) = q.front() {
+            if at <= now && link.can_push() {
+                link.push(ME, x);
+                q.pop_front();
+                *queued -= 1;
+            }
+        }
+    }
+}
+
 /// A cluster's work request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Request {
@@ -230,25 +253,19 @@ impl Balancer {
                 }
             }
         }
-        // Deliver arrived jobs, one per cycle per cluster.
-        for c in 0..n * (self.queued[0] > 0) as usize {
-            if let Some(&(at, job)) = self.inbound[c].front() {
-                if at <= now && io.to_ray_buffers[c].can_push() {
-                    io.to_ray_buffers[c].push(ME, job);
-                    self.inbound[c].pop_front();
-                    self.queued[0] -= 1;
-                }
-            }
-        }
-        for c in 0..n * (self.queued[1] > 0) as usize {
-            if let Some(&(at, d)) = self.inbound_desc[c].front() {
-                if at <= now && io.desc_to_ray_buffers[c].can_push() {
-                    io.desc_to_ray_buffers[c].push(ME, d);
-                    self.inbound_desc[c].pop_front();
-                    self.queued[1] -= 1;
-                }
-            }
-        }
+        // Deliver arrived jobs and descriptors, one of each per cycle per cluster.
+        deliver(
+            now,
+            &mut self.inbound,
+            io.to_ray_buffers,
+            &mut self.queued[0],
+        );
+        deliver(
+            now,
+            &mut self.inbound_desc,
+            io.desc_to_ray_buffers,
+            &mut self.queued[1],
+        );
         // Results of moved jobs go home.
         for c in 0..n {
             if io.from_icus[c].peek().is_some() {
@@ -259,7 +276,8 @@ impl Balancer {
                 self.stats.link_words += JOB_WORDS as u64;
             }
         }
-        for c in 0..n * (self.queued[2] > 0) as usize {
+        let returning = self.queued[2] > 0;
+        for c in (0..n).filter(|_| returning) {
             if let Some(&(at, r)) = self.returns[c].front() {
                 let port = &mut io.to_ctus[c * io.ctus_per_cluster + r.ctu as usize];
                 if at <= now && port.can_push() {
