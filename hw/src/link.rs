@@ -25,7 +25,7 @@
 //! producer and consumer are ticked within a cycle cannot change any result.
 
 use std::cell::Cell;
-use std::collections::VecDeque;
+use std::rc::Rc;
 
 /// A unit of the machine: one end of a link, and what the machine ticks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -39,25 +39,102 @@ pub enum UnitId {
     PatchBuffer(usize),
 }
 
+/// Bits of a unit's code: the kind (3 bits), the cluster, the CTU.
+const KIND_BITS: u32 = 3;
+const INDEX_BITS: u32 = 30;
+
+impl UnitId {
+    /// The unit as one nonzero integer (rule 7 compares a link's end in one instruction):
+    /// the kind in the low bits, then the cluster, then the CTU — distinct for every
+    /// cluster and CTU index below 2^30 (the configuration allows 256 and 64).
+    #[inline(always)]
+    pub fn code(self) -> u64 {
+        let (kind, c, j) = match self {
+            UnitId::Memory => (1, 0, 0),
+            UnitId::Balancer => (2, 0, 0),
+            UnitId::Ctu(c, j) => (3, c, j),
+            UnitId::Icu(c) => (4, c, 0),
+            UnitId::RayBuffer(c) => (5, c, 0),
+            UnitId::PatchBuffer(c) => (6, c, 0),
+        };
+        let field = |x: usize| x as u64 & ((1 << INDEX_BITS) - 1);
+        kind | field(c) << KIND_BITS | field(j) << (KIND_BITS + INDEX_BITS)
+    }
+
+    /// The unit whose [`UnitId::code`] is `code`; `None` for 0 (no unit) or a code no unit
+    /// has.
+    pub fn from_code(code: u64) -> Option<UnitId> {
+        let c = (code >> KIND_BITS) as usize & ((1 << INDEX_BITS) - 1);
+        let j = (code >> (KIND_BITS + INDEX_BITS)) as usize;
+        let u = match code & ((1 << KIND_BITS) - 1) {
+            1 => UnitId::Memory,
+            2 => UnitId::Balancer,
+            3 => UnitId::Ctu(c, j),
+            4 => UnitId::Icu(c),
+            5 => UnitId::RayBuffer(c),
+            6 => UnitId::PatchBuffer(c),
+            _ => return None,
+        };
+        (u.code() == code).then_some(u)
+    }
+}
+
+/// A word of touch bits shared by up to 64 links: each link raises its own bit whenever a
+/// push, pop or take-back stages something, so the word's owner (the machine's link table)
+/// commits only the links whose bits are up ([`TouchWord::take`]) instead of testing every
+/// link every cycle. A link not given a word has a private one nobody reads; its `commit`
+/// tests its own flag, so a spurious bit costs one test and never changes a result.
+#[derive(Clone, Debug, Default)]
+pub struct TouchWord(Rc<Cell<u64>>);
+
+impl TouchWord {
+    /// The bits raised since the last call, cleared.
+    #[inline(always)]
+    pub fn take(&self) -> u64 {
+        self.0.replace(0)
+    }
+
+    #[inline(always)]
+    fn raise(&self, bits: u64) {
+        self.0.set(self.0.get() | bits);
+    }
+}
+
 /// A registered FIFO link carrying `T`.
+///
+/// The items live in a ring of `capacity` slots (a link never holds more: a push needs room
+/// counting this cycle's pushes, and a staged pop frees none). `head` is the registered
+/// front's slot, `tail` the slot the next push writes; the registered state the units read
+/// (`peekable`, `room`, `len`) is computed once at the edge, so each handshake call is a
+/// load and a test.
 #[derive(Clone, Debug)]
 pub struct Link<T> {
-    /// The registered items, then (at the back) the `staged_push` items pushed this cycle:
-    /// a push goes straight into the one queue and becomes visible at the edge.
-    q: VecDeque<T>,
+    slots: Box<[T]>,
+    head: usize,
+    tail: usize,
+    /// Items held at the last edge (those staged for a take-back or a pop included).
+    len: usize,
+    /// Pushes the producer may still make this cycle: room at the last edge, at most
+    /// `ports`, less this cycle's pushes (rule 1).
+    room: usize,
+    /// The registered front is there and not popped this cycle (rule 3).
+    peekable: bool,
+    staged_pop: bool,
+    /// Something was staged this cycle: `commit` has work.
+    touched: bool,
     capacity: usize,
     ports: usize,
-    /// Items at the back of `q` pushed this cycle (not yet registered).
+    /// Items pushed this cycle (not yet registered).
     staged_push: usize,
-    staged_pop: bool,
     staged_take_back: usize,
-    /// Something was staged this cycle: `commit` has work (an untouched link's edge is one
-    /// test, so the machine's clock edge costs little for the many idle links).
-    touched: bool,
-    /// The one unit that pushes (rule 7); `None` until the first push of an unwired link.
-    producer: Option<UnitId>,
+    /// The one unit that pushes, as its [`UnitId::code`] (rule 7); 0 until the first push
+    /// of an unwired link.
+    producer: u64,
     /// The one unit that pops (rule 7).
-    consumer: Option<UnitId>,
+    consumer: u64,
+    /// Where a touch is recorded, and this link's bit in it.
+    touch: TouchWord,
+    touch_bit: u64,
     /// Items transferred (popped) since the start.
     pub transfers: u64,
     /// The registered state changed at an edge since the waveform last looked
@@ -67,17 +144,25 @@ pub struct Link<T> {
 
 /// Rule 7: records `by` as the link's `end` on first use, else checks it is the same unit.
 #[inline(always)]
-fn one_end(end: &mut Option<UnitId>, by: UnitId, side: &str) {
-    match *end {
-        Some(u) => assert!(
-            u == by,
-            "rule 7: {by:?} acts as the {side} of a link whose {side} is {u:?}"
-        ),
-        None => *end = Some(by),
+fn one_end(end: &mut u64, by: UnitId, side: &'static str) {
+    let code = by.code();
+    if *end != code {
+        first_or_wrong_end(end, by, side);
     }
 }
 
-impl<T: Clone> Link<T> {
+/// The rare side of rule 7: the first use of an unwired end, or a second unit (a panic, in
+/// release builds too).
+#[cold]
+#[inline(never)]
+fn first_or_wrong_end(end: &mut u64, by: UnitId, side: &'static str) {
+    match UnitId::from_code(*end) {
+        Some(u) => panic!("rule 7: {by:?} acts as the {side} of a link whose {side} is {u:?}"),
+        None => *end = by.code(),
+    }
+}
+
+impl<T: Clone + Default> Link<T> {
     /// A link holding at most `capacity` items (at least 1).
     pub fn new(capacity: usize) -> Self {
         Self::with_ports(capacity, 1)
@@ -89,42 +174,79 @@ impl<T: Clone> Link<T> {
         let capacity = capacity.max(1);
         let ports = ports.max(1);
         Link {
-            q: VecDeque::with_capacity(capacity + ports),
+            slots: vec![T::default(); capacity].into_boxed_slice(),
+            head: 0,
+            tail: 0,
+            len: 0,
+            room: capacity.min(ports),
+            peekable: false,
+            staged_pop: false,
+            touched: false,
             capacity,
             ports,
             staged_push: 0,
-            staged_pop: false,
             staged_take_back: 0,
-            touched: false,
-            producer: None,
-            consumer: None,
+            producer: 0,
+            consumer: 0,
+            touch: TouchWord::default(),
+            touch_bit: 1,
             transfers: 0,
             changed: Cell::new(true),
         }
     }
+}
 
+impl<T: Clone> Link<T> {
     /// The same link with its two ends fixed (the machine's wiring): a push by any unit but
     /// `producer`, or a pop by any but `consumer`, panics (rule 7).
     pub fn wired(mut self, producer: UnitId, consumer: UnitId) -> Self {
-        self.producer = Some(producer);
-        self.consumer = Some(consumer);
+        self.producer = producer.code();
+        self.consumer = consumer.code();
         self
+    }
+
+    /// Records this link's touches as bit `bit` (below 64) of `word` from now on.
+    pub fn log_touches(&mut self, word: &TouchWord, bit: u32) {
+        assert!(bit < 64, "a touch word has 64 bits");
+        self.touch = word.clone();
+        self.touch_bit = 1 << bit;
+        if self.touched {
+            self.touch.raise(self.touch_bit);
+        }
     }
 
     /// The producer (rule 7), once known.
     pub fn producer(&self) -> Option<UnitId> {
-        self.producer
+        UnitId::from_code(self.producer)
     }
 
     /// The consumer (rule 7), once known.
     pub fn consumer(&self) -> Option<UnitId> {
-        self.consumer
+        UnitId::from_code(self.consumer)
+    }
+
+    /// Marks the link as having work at the edge.
+    #[inline(always)]
+    fn touch(&mut self) {
+        self.touched = true;
+        self.touch.raise(self.touch_bit);
+    }
+
+    /// The slot `n` places after slot `i` (`n` ≤ capacity).
+    #[inline(always)]
+    fn wrap(&self, i: usize, n: usize) -> usize {
+        let j = i + n;
+        if j >= self.capacity {
+            j - self.capacity
+        } else {
+            j
+        }
     }
 
     /// Registered ready: room at the last edge (rule 1).
     #[inline(always)]
     pub fn can_push(&self) -> bool {
-        self.q.len() < self.capacity && self.staged_push < self.ports
+        self.room > 0
     }
 
     /// Stages a push by `by` (rules 1 and 7). Panics if the rules were broken — a model bug.
@@ -135,18 +257,20 @@ impl<T: Clone> Link<T> {
             self.can_push(),
             "push without ready or more pushes than ports in a cycle"
         );
-        self.q.push_back(x);
+        self.slots[self.tail] = x;
+        self.tail = self.wrap(self.tail, 1);
+        self.room -= 1;
         self.staged_push += 1;
-        self.touched = true;
+        self.touch();
     }
 
     /// Registered valid and data: the front at the last edge (rule 3).
     #[inline(always)]
     pub fn peek(&self) -> Option<&T> {
-        if self.staged_pop || self.q.len() == self.staged_push {
-            None
+        if self.peekable {
+            self.slots.get(self.head)
         } else {
-            self.q.front()
+            None
         }
     }
 
@@ -154,22 +278,24 @@ impl<T: Clone> Link<T> {
     #[inline(always)]
     pub fn pop(&mut self, by: UnitId) -> T {
         one_end(&mut self.consumer, by, "consumer");
-        assert!(!self.staged_pop, "two pops in a cycle");
-        assert!(!self.is_empty(), "pop without valid");
+        assert!(self.peekable, "pop without valid or two pops in a cycle");
+        self.peekable = false;
         self.staged_pop = true;
-        self.touched = true;
-        self.q.front().cloned().expect("pop without valid")
+        self.touch();
+        self.slots[self.head].clone()
     }
 
     /// Stages taking `k` items from the back (rule 6) and returns them, oldest first. The
     /// splitter is the link's producer (it takes back what it queued; rule 7).
     pub fn take_back(&mut self, by: UnitId, k: usize) -> Vec<T> {
         one_end(&mut self.producer, by, "producer");
-        let len = self.len();
+        let len = self.len;
         assert!(self.staged_take_back == 0 && k < len.max(1), "rule 6");
         self.staged_take_back = k;
-        self.touched = true;
-        self.q.range(len - k..len).cloned().collect()
+        self.touch();
+        (len - k..len)
+            .map(|i| self.slots[self.wrap(self.head, i)].clone())
+            .collect()
     }
 
     /// The clock edge (rule 4). An untouched link has nothing to do.
@@ -183,18 +309,35 @@ impl<T: Clone> Link<T> {
     /// The edge of a touched link: take-back, pop, then the staged pushes become registered.
     fn commit_staged(&mut self) {
         if self.staged_take_back > 0 {
-            let len = self.len();
-            self.q.drain(len - self.staged_take_back..len);
-            self.staged_take_back = 0;
+            self.drop_taken_back();
         }
         if self.staged_pop {
-            self.q.pop_front();
+            self.head = self.wrap(self.head, 1);
+            self.len -= 1;
             self.staged_pop = false;
             self.transfers += 1;
         }
+        self.len += self.staged_push;
         self.staged_push = 0;
+        self.room = (self.capacity - self.len).min(self.ports);
+        self.peekable = self.len > 0;
         self.touched = false;
         *self.changed.get_mut() = true;
+    }
+
+    /// Removes the `staged_take_back` registered items before this cycle's pushes: the
+    /// pushes move down into their slots.
+    #[cold]
+    fn drop_taken_back(&mut self) {
+        let k = self.staged_take_back;
+        let first = self.wrap(self.head, self.len - k);
+        for i in 0..self.staged_push {
+            let (to, from) = (self.wrap(first, i), self.wrap(first, k + i));
+            self.slots.swap(to, from);
+        }
+        self.tail = self.wrap(first, self.staged_push);
+        self.len -= k;
+        self.staged_take_back = 0;
     }
 
     /// True when the registered state (valid, ready, occupancy, transfers) may have changed
@@ -208,13 +351,13 @@ impl<T: Clone> Link<T> {
     /// Items held at the last edge.
     #[inline(always)]
     pub fn len(&self) -> usize {
-        self.q.len() - self.staged_push
+        self.len
     }
 
     /// True when empty at the last edge.
     #[inline(always)]
     pub fn is_empty(&self) -> bool {
-        self.len() == 0
+        self.len == 0
     }
 
     /// Registered valid (an item is at the front).
@@ -226,7 +369,7 @@ impl<T: Clone> Link<T> {
     /// Registered ready (room for one more).
     #[inline(always)]
     pub fn ready(&self) -> bool {
-        self.len() < self.capacity
+        self.len < self.capacity
     }
 
     /// The capacity.
@@ -355,5 +498,170 @@ mod tests {
         l.commit();
         assert!(l.take_changed());
         assert!(!l.take_changed());
+    }
+
+    /// The two-phase FIFO the ring must behave as: a queue of registered items followed by
+    /// this cycle's pushes, with the pop and the take-back applied at the edge.
+    struct Model {
+        q: std::collections::VecDeque<u32>,
+        capacity: usize,
+        ports: usize,
+        pushed: usize,
+        popped: bool,
+        taken: usize,
+        transfers: u64,
+    }
+
+    impl Model {
+        fn len(&self) -> usize {
+            self.q.len() - self.pushed
+        }
+        fn can_push(&self) -> bool {
+            self.q.len() < self.capacity && self.pushed < self.ports
+        }
+        fn peek(&self) -> Option<u32> {
+            (!self.popped && self.len() > 0).then(|| self.q[0])
+        }
+        fn commit(&mut self) {
+            let len = self.len();
+            self.q.drain(len - self.taken..len);
+            if self.popped {
+                self.q.pop_front();
+                self.transfers += 1;
+            }
+            (self.pushed, self.popped, self.taken) = (0, false, 0);
+        }
+    }
+
+    /// Random pushes (up to the ports), pops and take-backs against the model, through many
+    /// wraps of the ring: every registered read agrees every cycle.
+    #[test]
+    fn the_ring_matches_a_two_phase_queue_through_wraps_pushes_pops_and_take_backs() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut rand = |n: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed % n
+        };
+        let mut wraps = 0;
+        for (capacity, ports) in [(1, 1), (2, 1), (3, 1), (3, 2), (5, 3), (8, 4), (7, 7)] {
+            let mut l: Link<u32> = Link::with_ports(capacity, ports).wired(P, C);
+            let mut m = Model {
+                q: Default::default(),
+                capacity,
+                ports,
+                pushed: 0,
+                popped: false,
+                taken: 0,
+                transfers: 0,
+            };
+            let mut next = 0;
+            for _cycle in 0..3000 {
+                let (take, take_first) = (rand(8) == 0 && m.len() > 1, rand(2) == 0);
+                let take_back = |l: &mut Link<u32>, m: &mut Model, k: u64| {
+                    let k = k as usize % m.len();
+                    let want: Vec<u32> = m.q.range(m.len() - k..m.len()).copied().collect();
+                    assert_eq!(l.take_back(P, k), want);
+                    m.taken = k;
+                };
+                let k = rand(1 << 20);
+                if take && take_first {
+                    take_back(&mut l, &mut m, k);
+                }
+                if rand(3) > 0 && m.peek().is_some() {
+                    assert_eq!(Some(l.pop(C)), m.peek());
+                    m.popped = true;
+                }
+                for _ in 0..rand(ports as u64 + 2) {
+                    assert_eq!(l.can_push(), m.can_push());
+                    if m.can_push() {
+                        l.push(P, next);
+                        m.q.push_back(next);
+                        m.pushed += 1;
+                        next += 1;
+                    }
+                }
+                if take && !take_first {
+                    take_back(&mut l, &mut m, k);
+                }
+                assert_eq!(l.peek().copied(), m.peek());
+                let head = l.head;
+                l.commit();
+                m.commit();
+                wraps += (l.head < head) as usize;
+                assert_eq!(l.peek().copied(), m.peek());
+                assert_eq!((l.len(), l.can_push()), (m.len(), m.can_push()));
+                assert_eq!((l.valid(), l.ready()), (m.len() > 0, m.len() < capacity));
+                assert_eq!(l.transfers, m.transfers);
+            }
+        }
+        assert!(wraps > 100, "the ring wrapped {wraps} times");
+    }
+
+    #[test]
+    fn a_take_back_with_pushes_in_the_same_cycle_keeps_the_pushes_behind_the_rest() {
+        let mut l: Link<u8> = Link::with_ports(6, 3).wired(P, C);
+        for x in 0..4 {
+            l.push(P, x);
+            if x == 2 {
+                l.commit();
+            }
+        }
+        l.commit();
+        // Registered 0 1 2 3 (the ring's head at 0); take 2 and 3, push 4 and 5, pop 0.
+        assert_eq!(l.take_back(P, 2), vec![2, 3]);
+        l.push(P, 4);
+        l.push(P, 5);
+        assert_eq!(l.pop(C), 0);
+        l.commit();
+        let mut got = vec![];
+        while let Some(&x) = l.peek() {
+            got.push(x);
+            l.pop(C);
+            l.commit();
+        }
+        assert_eq!(got, vec![1, 4, 5]);
+    }
+
+    #[test]
+    fn every_unit_has_its_own_code_and_the_code_names_it() {
+        let mut units = vec![UnitId::Memory, UnitId::Balancer];
+        for c in [0, 1, 7, 255] {
+            units.extend([UnitId::Icu(c), UnitId::RayBuffer(c), UnitId::PatchBuffer(c)]);
+            units.extend([0, 1, 63].map(|j| UnitId::Ctu(c, j)));
+        }
+        let mut codes: Vec<u64> = units.iter().map(|u| u.code()).collect();
+        for (u, &code) in units.iter().zip(&codes) {
+            assert_ne!(code, 0, "0 means no unit");
+            assert_eq!(UnitId::from_code(code), Some(*u));
+        }
+        codes.sort_unstable();
+        codes.dedup();
+        assert_eq!(codes.len(), units.len());
+        assert_eq!(UnitId::from_code(0), None);
+        assert_eq!(UnitId::from_code(7), None);
+    }
+
+    #[test]
+    fn a_touch_raises_the_links_bit_in_its_word_and_nothing_else() {
+        let w = TouchWord::default();
+        let mut a: Link<u8> = Link::new(2);
+        let mut b: Link<u8> = Link::new(2);
+        a.log_touches(&w, 3);
+        b.log_touches(&w, 40);
+        assert_eq!(w.take(), 0);
+        a.push(P, 1);
+        assert_eq!(w.take(), 1 << 3);
+        a.commit();
+        a.pop(C);
+        b.push(P, 2);
+        assert_eq!(w.take(), 1 << 3 | 1 << 40);
+        assert_eq!(w.take(), 0, "taking clears");
+        // A link touched before it is given a word raises its bit at once.
+        let mut c: Link<u8> = Link::new(2);
+        c.push(P, 3);
+        c.log_touches(&w, 63);
+        assert_eq!(w.take(), 1 << 63);
     }
 }

@@ -1,7 +1,8 @@
-//! The messages that cross links between units.
+//! The messages that cross links between units (each has a `Default`, the value a link's
+//! unused slots hold).
 
 /// A patch-load request from a CTU to the global memory's arbiter.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MemRequest {
     pub patch: u32,
     pub cluster: u16,
@@ -11,7 +12,7 @@ pub struct MemRequest {
 }
 
 /// A patch record delivered by the memory into a cluster's patch buffer, for one CTU.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PatchArrival {
     pub patch: u32,
     pub ctu: u16,
@@ -33,7 +34,7 @@ pub struct Job {
 pub const JOB_WORDS: u32 = 2;
 
 /// The balancer's order to a busy cluster's ray buffer: split off a work-item for `thief`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SplitOrder {
     pub thief: u16,
     pub jobs: u32,
@@ -41,7 +42,7 @@ pub struct SplitOrder {
 
 /// A work-item on its way from a victim to a thief: jobs (`job_source = "ctu"`) or a
 /// descriptor split off a waiting one (`"bundle"`).
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct WorkItem {
     pub from: u16,
     pub to: u16,
@@ -83,7 +84,7 @@ pub const DESCRIPTOR_WORDS: u32 = 2;
 pub const RAY_ID_WORDS: u32 = 1;
 
 /// A result computed by another cluster's ICU, on its way back to its owner.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct RemoteResult {
     pub owner: u16,
     pub ctu: u16,
@@ -91,7 +92,7 @@ pub struct RemoteResult {
 }
 
 /// The ICU's answer to a job: t of the hit, if any (t format, raw).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct JobResult {
     pub slot: u32,
     pub patch: u32,

@@ -3,12 +3,17 @@
 //! and where the waveform shows it. `commit_all`, `all_empty`, `probe` and the wiring are
 //! generated from the table, so adding a link touches this table and nothing else.
 //!
+//! The clock edge commits only the links touched in the cycle: every link of a family
+//! raises its bit in one of the family's touch words (64 links a word) when a push, pop or
+//! take-back stages something, and `commit_all` takes each word and commits the links
+//! whose bits are up — a few of the table's links a cycle, found without testing the rest.
+//!
 //! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
 //! own state, not links of this table; `Cluster::commit` clocks them.
 
 use super::probe::Sink;
 use crate::config::MachineTable;
-use crate::link::{Link, UnitId};
+use crate::link::{Link, TouchWord, UnitId};
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};
 
 /// Where a link family appears in the waveform (the probe calls it at that point, so the
@@ -47,14 +52,22 @@ macro_rules! links {
             probe $section:expr,
             scope $scope:expr;
     )*) => {
-        /// Every link of the machine (see the table in machine/links.rs).
-        #[derive(Clone, Debug)]
+        /// Every link of the machine (see the table in machine/links.rs). Not `Clone`: its
+        /// links record their touches in its touch words, which a copy would share.
+        #[derive(Debug)]
         pub struct Links {
             $( $(#[doc = $doc])* pub $name: Vec<Link<$t>>, )*
             /// CTUs per cluster.
             k: usize,
             /// Waveform scope of each link, per family (built once).
             scopes: Scopes,
+            /// Each family's touch words: link i raises bit i % 64 of word i / 64.
+            touch: Touches,
+        }
+
+        #[derive(Debug, Default)]
+        struct Touches {
+            $( $name: Vec<TouchWord>, )*
         }
 
         #[derive(Clone, Debug, Default)]
@@ -74,6 +87,7 @@ macro_rules! links {
                     }
                 };
                 let mut scopes = Scopes::default();
+                let mut touch = Touches::default();
                 $(
                     let cap: fn(&MachineTable) -> usize = $cap;
                     let from: fn(usize, usize) -> UnitId = $from;
@@ -81,17 +95,19 @@ macro_rules! links {
                     let scope: fn(usize, usize) -> String = $scope;
                     let at = ends(Shape::$shape);
                     scopes.$name = at.iter().map(|&(c, j)| scope(c, j)).collect();
-                    let $name: Vec<Link<$t>> = at
+                    let mut $name: Vec<Link<$t>> = at
                         .iter()
                         .map(|&(c, j)| Link::new(cap(m)).wired(from(c, j), to(c, j)))
                         .collect();
+                    touch.$name = log_touches(&mut $name);
                 )*
-                Links { $( $name, )* k, scopes }
+                Links { $( $name, )* k, scopes, touch }
             }
 
-            /// The clock edge of every link.
+            /// The clock edge of every link: those touched this cycle commit, the others
+            /// have nothing to do.
             pub fn commit_all(&mut self) {
-                $( for l in &mut self.$name { l.commit(); } )*
+                $( commit_touched(&mut self.$name, &self.touch.$name); )*
             }
 
             /// True when every link is empty.
@@ -220,6 +236,30 @@ impl Links {
     }
 }
 
+/// Gives `family`'s links their touch bits: link i is bit i % 64 of word i / 64.
+fn log_touches<T: Clone>(family: &mut [Link<T>]) -> Vec<TouchWord> {
+    let words: Vec<TouchWord> = family.chunks(64).map(|_| TouchWord::default()).collect();
+    for (i, l) in family.iter_mut().enumerate() {
+        l.log_touches(&words[i / 64], (i % 64) as u32);
+    }
+    words
+}
+
+/// The clock edge of the links of `family` whose bits are up in `words` (a link whose bit
+/// is up but that has nothing staged commits nothing).
+#[inline(always)]
+fn commit_touched<T: Clone>(family: &mut [Link<T>], words: &[TouchWord]) {
+    for (w, word) in words.iter().enumerate() {
+        let mut bits = word.take();
+        while bits != 0 {
+            if let Some(l) = family.get_mut(w * 64 + bits.trailing_zeros() as usize) {
+                l.commit();
+            }
+            bits &= bits - 1;
+        }
+    }
+}
+
 /// Reports a link's registered valid, ready, occupancy and transfer count (a filler skips
 /// them when no edge touched the link since the last sample).
 pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>) {
@@ -230,4 +270,52 @@ pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>)
     p.bits(scope, "ready", 1, l.ready() as u64);
     p.bits(scope, "occupancy", 16, l.len() as u64);
     p.bits(scope, "transfers", 32, l.transfers);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::msg::MemRequest;
+
+    /// 40 clusters of the paper's 2 CTUs: 80 links a per-CTU family, so two touch words.
+    fn links() -> Links {
+        let mut m = crate::config::paper().machine;
+        m.clusters = 40;
+        Links::new(&m)
+    }
+
+    #[test]
+    fn the_edge_commits_the_touched_links_in_every_touch_word_and_no_others() {
+        let mut l = links();
+        assert_eq!(l.requests.len(), 80);
+        let touched = [0, 5, 63, 64, 79];
+        for &i in &touched {
+            l.requests[i].push(UnitId::Ctu(i / 2, i % 2), MemRequest::default());
+        }
+        l.orders[3].push(UnitId::Balancer, SplitOrder::default());
+        l.commit_all();
+        for (i, r) in l.requests.iter().enumerate() {
+            assert!(r.is_settled(), "request link {i} committed");
+            assert_eq!(r.len(), touched.contains(&i) as usize, "request link {i}");
+        }
+        assert_eq!(
+            l.orders.iter().map(Link::len).collect::<Vec<_>>()[..5],
+            [0, 0, 0, 1, 0]
+        );
+        assert!(l.jobs.iter().all(|j| j.is_settled() && j.is_empty()));
+        // A pop is a touch too; a link untouched since its last edge keeps its state.
+        for r in l.requests.iter_mut() {
+            r.take_changed();
+        }
+        assert_eq!(l.requests[64].pop(UnitId::Memory), MemRequest::default());
+        l.commit_all();
+        assert!(l.requests[64].is_empty() && l.requests[64].take_changed());
+        assert_eq!(l.requests[64].transfers, 1);
+        assert!(!l.requests[63].take_changed() && l.requests[63].len() == 1);
+        l.commit_all();
+        assert!(
+            !l.requests[64].take_changed(),
+            "an edge with nothing staged changes nothing"
+        );
+    }
 }
