@@ -46,7 +46,8 @@ const INDEX_BITS: u32 = 30;
 impl UnitId {
     /// The unit as one nonzero integer (rule 7 compares a link's end in one instruction):
     /// the kind in the low bits, then the cluster, then the CTU — distinct for every
-    /// cluster and CTU index below 2^30 (the configuration allows 256 and 64).
+    /// cluster and CTU index below 2^30 (the configuration allows 256 and 64; indices are
+    /// not masked, so the code costs a shift and an or).
     #[inline(always)]
     pub fn code(self) -> u64 {
         let (kind, c, j) = match self {
@@ -57,8 +58,7 @@ impl UnitId {
             UnitId::RayBuffer(c) => (5, c, 0),
             UnitId::PatchBuffer(c) => (6, c, 0),
         };
-        let field = |x: usize| x as u64 & ((1 << INDEX_BITS) - 1);
-        kind | field(c) << KIND_BITS | field(j) << (KIND_BITS + INDEX_BITS)
+        kind | (c as u64) << KIND_BITS | (j as u64) << (KIND_BITS + INDEX_BITS)
     }
 
     /// The unit whose [`UnitId::code`] is `code`; `None` for 0 (no unit) or a code no unit
@@ -311,13 +311,12 @@ impl<T: Clone> Link<T> {
         if self.staged_take_back > 0 {
             self.drop_taken_back();
         }
-        if self.staged_pop {
-            self.head = self.wrap(self.head, 1);
-            self.len -= 1;
-            self.staged_pop = false;
-            self.transfers += 1;
-        }
-        self.len += self.staged_push;
+        // Without a branch on the pop: whether a link was popped is anyone's guess.
+        let popped = self.staged_pop as usize;
+        self.head = self.wrap(self.head, popped);
+        self.len = self.len - popped + self.staged_push;
+        self.transfers += popped as u64;
+        self.staged_pop = false;
         self.staged_push = 0;
         self.room = (self.capacity - self.len).min(self.ports);
         self.peekable = self.len > 0;

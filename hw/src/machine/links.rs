@@ -3,10 +3,11 @@
 //! and where the waveform shows it. `commit_all`, `all_empty`, `probe` and the wiring are
 //! generated from the table, so adding a link touches this table and nothing else.
 //!
-//! The clock edge commits only the links touched in the cycle: every link of a family
-//! raises its bit in one of the family's touch words (64 links a word) when a push, pop or
-//! take-back stages something, and `commit_all` takes each word and commits the links
-//! whose bits are up — a few of the table's links a cycle, found without testing the rest.
+//! The clock edge commits only the links touched in the cycle: the table's links are
+//! numbered in table order (family by family), link n raises bit n % 64 of touch word n / 64
+//! when a push, pop or take-back stages something, and `commit_all` takes each word and
+//! commits the links whose bits are up, each found through a table of (family, index) by
+//! number — a few of the table's links a cycle, found without testing the rest.
 //!
 //! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
 //! own state, not links of this table; `Cluster::commit` clocks them.
@@ -61,13 +62,17 @@ macro_rules! links {
             k: usize,
             /// Waveform scope of each link, per family (built once).
             scopes: Scopes,
-            /// Each family's touch words: link i raises bit i % 64 of word i / 64.
-            touch: Touches,
+            /// The touch words: link number n raises bit n % 64 of word n / 64.
+            touch: Vec<TouchWord>,
+            /// Link number n's family and index in it.
+            numbers: Vec<(Family, u32)>,
         }
 
-        #[derive(Debug, Default)]
-        struct Touches {
-            $( $name: Vec<TouchWord>, )*
+        /// A family of the table.
+        #[allow(non_camel_case_types)]
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        enum Family {
+            $( $name, )*
         }
 
         #[derive(Clone, Debug, Default)]
@@ -87,7 +92,7 @@ macro_rules! links {
                     }
                 };
                 let mut scopes = Scopes::default();
-                let mut touch = Touches::default();
+                let (mut touch, mut numbers) = (Vec::new(), Vec::new());
                 $(
                     let cap: fn(&MachineTable) -> usize = $cap;
                     let from: fn(usize, usize) -> UnitId = $from;
@@ -99,15 +104,34 @@ macro_rules! links {
                         .iter()
                         .map(|&(c, j)| Link::new(cap(m)).wired(from(c, j), to(c, j)))
                         .collect();
-                    touch.$name = log_touches(&mut $name);
+                    for (i, l) in $name.iter_mut().enumerate() {
+                        let n = numbers.len();
+                        if n % 64 == 0 {
+                            touch.push(TouchWord::default());
+                        }
+                        l.log_touches(&touch[n / 64], (n % 64) as u32);
+                        numbers.push((Family::$name, i as u32));
+                    }
                 )*
-                Links { $( $name, )* k, scopes, touch }
+                Links { $( $name, )* k, scopes, touch, numbers }
             }
 
             /// The clock edge of every link: those touched this cycle commit, the others
             /// have nothing to do.
             pub fn commit_all(&mut self) {
-                $( commit_touched(&mut self.$name, &self.touch.$name); )*
+                for (w, word) in self.touch.iter().enumerate() {
+                    let mut bits = word.take();
+                    while bits != 0 {
+                        let n = w * 64 + bits.trailing_zeros() as usize;
+                        bits &= bits - 1;
+                        let Some(&(family, i)) = self.numbers.get(n) else {
+                            continue;
+                        };
+                        match family {
+                            $( Family::$name => commit_one(&mut self.$name, i), )*
+                        }
+                    }
+                }
             }
 
             /// True when every link is empty.
@@ -236,27 +260,12 @@ impl Links {
     }
 }
 
-/// Gives `family`'s links their touch bits: link i is bit i % 64 of word i / 64.
-fn log_touches<T: Clone>(family: &mut [Link<T>]) -> Vec<TouchWord> {
-    let words: Vec<TouchWord> = family.chunks(64).map(|_| TouchWord::default()).collect();
-    for (i, l) in family.iter_mut().enumerate() {
-        l.log_touches(&words[i / 64], (i % 64) as u32);
-    }
-    words
-}
-
-/// The clock edge of the links of `family` whose bits are up in `words` (a link whose bit
-/// is up but that has nothing staged commits nothing).
+/// The clock edge of link `i` of `family` (one whose bit is up but that has nothing
+/// staged commits nothing).
 #[inline(always)]
-fn commit_touched<T: Clone>(family: &mut [Link<T>], words: &[TouchWord]) {
-    for (w, word) in words.iter().enumerate() {
-        let mut bits = word.take();
-        while bits != 0 {
-            if let Some(l) = family.get_mut(w * 64 + bits.trailing_zeros() as usize) {
-                l.commit();
-            }
-            bits &= bits - 1;
-        }
+fn commit_one<T: Clone>(family: &mut [Link<T>], i: u32) {
+    if let Some(l) = family.get_mut(i as usize) {
+        l.commit();
     }
 }
 
@@ -277,7 +286,8 @@ mod tests {
     use super::*;
     use crate::msg::MemRequest;
 
-    /// 40 clusters of the paper's 2 CTUs: 80 links a per-CTU family, so two touch words.
+    /// 40 clusters of the paper's 2 CTUs: 80 links a per-CTU family, 680 in all (11 touch
+    /// words, a family's links across two or three).
     fn links() -> Links {
         let mut m = crate::config::paper().machine;
         m.clusters = 40;
