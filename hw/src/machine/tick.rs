@@ -5,11 +5,14 @@
 use super::links::Links;
 use super::{Machine, TickOrder};
 use crate::config::JobSource;
-use crate::link::UnitId;
+use crate::link::{Link, UnitId};
 use crate::units::balancer::BalancerPorts;
+use crate::units::cluster::Cluster;
+use crate::units::ctu::Ctu;
 use crate::units::ctu::CtuPorts;
 use crate::units::icu::IcuPorts;
 use crate::units::ray_buffer::BundlePorts;
+use std::ops::Range;
 
 impl Machine<'_> {
     /// One clock cycle: tick every unit in `order`, then commit every link.
@@ -66,6 +69,15 @@ impl Machine<'_> {
         let l = &mut self.links;
         for (c, cl) in self.clusters.iter_mut().enumerate() {
             let at = c * k..(c + 1) * k;
+            if quiet_cluster(cl, l, c, at.clone()) {
+                // Every unit's cycle would only count: the CTUs' in DONE, the empty ICU's;
+                // the empty buffers add nothing to their occupancy counters.
+                for ctu in &mut cl.ctus {
+                    ctu.finished_cycle();
+                }
+                cl.icu.idle_tick();
+                continue;
+            }
             cl.patch_buffer.tick(&mut l.arrivals[at.clone()]);
             let requests = &mut l.requests[at.clone()];
             let arrivals = &mut l.arrivals[at.clone()];
@@ -215,6 +227,22 @@ impl Machine<'_> {
         }
         a
     }
+}
+
+/// True when cluster `c` has nothing to do this cycle: its CTUs are finished, its patch
+/// buffer, ray buffer and ICU are empty, and nothing waits at the ray buffer's inputs (at the
+/// last edge, as each unit's own idle test sees it).
+#[inline(always)]
+fn quiet_cluster(cl: &Cluster, l: &Links, c: usize, at: Range<usize>) -> bool {
+    cl.ctus.iter().all(Ctu::is_finished)
+        && cl.icu.is_empty()
+        && cl.ray_buffer.is_empty()
+        && cl.patch_buffer.store.is_empty()
+        && l.orders[c].is_empty()
+        && l.net_in[c].is_empty()
+        && l.net_desc[c].is_empty()
+        && l.jobs[at.clone()].iter().all(Link::is_empty)
+        && l.descs[at].iter().all(Link::is_empty)
 }
 
 /// A deterministic Fisher–Yates shuffle (splitmix64).

@@ -309,19 +309,24 @@ impl Balancer {
         // way, then due requests served (one split order per victim per cycle). Serving
         // cluster c touches nothing a later cluster's request reads, so one walk does both.
         for c in 0..n {
-            let net_empty =
-                || io.to_ray_buffers[c].is_empty() && io.desc_to_ray_buffers[c].is_empty();
-            if self.wants_work(c, io.occupancy[c], net_empty) {
-                self.requests[c] = Some(Request {
-                    next_try: now,
-                    ordered: false,
-                });
-                self.stats.work_requests += 1;
-            }
-            let Some(r) = self.requests[c] else { continue };
-            if r.ordered || r.next_try > now {
-                continue;
-            }
+            let r = match self.requests[c] {
+                Some(r) if r.ordered || r.next_try > now => continue,
+                Some(r) => r,
+                None => {
+                    let net_empty =
+                        || io.to_ray_buffers[c].is_empty() && io.desc_to_ray_buffers[c].is_empty();
+                    if !self.wants_work(c, io.occupancy[c], net_empty) {
+                        continue;
+                    }
+                    let r = Request {
+                        next_try: now,
+                        ordered: false,
+                    };
+                    self.requests[c] = Some(r);
+                    self.stats.work_requests += 1;
+                    r
+                }
+            };
             match self.victim(c, io) {
                 Some(v) => {
                     io.orders[v].push(

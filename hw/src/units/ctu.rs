@@ -200,6 +200,9 @@ pub struct Ctu {
     p: CtuParams,
     /// Its end of its links (rule 7).
     me: UnitId,
+    /// The sector is finished ([`Ctu::done`]) with no load pending: no result and no patch
+    /// can reach it any more, so every later cycle is an idle one in DONE.
+    finished: bool,
     pub state: CtuState,
     slots: Vec<RaySlot>,
     /// Slots of the rays not retired at the last join, ascending.
@@ -257,6 +260,7 @@ impl Ctu {
         Ctu {
             p,
             me: UnitId::Ctu(p.cluster as usize, p.local as usize),
+            finished: false,
             state: CtuState::Idle,
             remaining: (0..slots.len() as u32).collect(),
             slots,
@@ -406,14 +410,33 @@ impl Ctu {
         remote_results: &Link<JobResult>,
         arrivals: &Link<PatchArrival>,
     ) -> bool {
+        if self.finished {
+            self.finished_cycle();
+            return true;
+        }
         let idle = results.is_empty()
             && remote_results.is_empty()
             && arrivals.is_empty()
             && self.idle_now(now);
         if idle {
             self.skip(1);
+            self.finished = self.done() && self.pending_loads == 0;
         }
         idle
+    }
+
+    /// True once the sector is finished with no load pending: nothing can reach the CTU any
+    /// more, and every cycle is [`Ctu::finished_cycle`].
+    #[inline(always)]
+    pub fn is_finished(&self) -> bool {
+        self.finished
+    }
+
+    /// A cycle of a finished CTU: `skip(1)` in DONE.
+    #[inline(always)]
+    pub fn finished_cycle(&mut self) {
+        self.stats.state_cycles.done += 1;
+        self.stats.idle_cycles += 1;
     }
 
     /// A cycle with something to do (or to check).

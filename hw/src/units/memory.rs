@@ -185,29 +185,33 @@ impl Memory {
             ArbiterPolicy::RoundRobin => self.next,
             ArbiterPolicy::FixedPriority => 0,
         };
-        let mut i = start;
-        for _ in 0..n {
-            if requests[i].peek().is_some() {
-                let r = requests[i].pop(UnitId::Memory);
-                self.stats.grants += 1;
-                self.stats.wait_cycles += now - r.issued;
-                self.stats.words += self.words;
-                self.port_free_at = now + self.words;
-                self.queued += 1;
-                self.inflight[r.cluster as usize].push_back(InFlight {
-                    ready: now + self.latency + self.words,
-                    cluster: r.cluster,
-                    arrival: PatchArrival {
-                        patch: r.patch,
-                        ctu: r.ctu,
-                    },
-                });
-                self.last_grant = i as u32;
-                self.next = (i + 1) % n;
-                return;
-            }
-            i = if i + 1 == n { 0 } else { i + 1 };
-        }
+        // The first requester waiting from `start` on, wrapping (the memory is every request
+        // link's one consumer, so a link that is not empty shows its front).
+        let waiting = |l: &Link<MemRequest>| !l.is_empty();
+        let Some(i) = requests[start..]
+            .iter()
+            .position(waiting)
+            .map(|p| p + start)
+            .or_else(|| requests[..start].iter().position(waiting))
+        else {
+            return;
+        };
+        let r = requests[i].pop(UnitId::Memory);
+        self.stats.grants += 1;
+        self.stats.wait_cycles += now - r.issued;
+        self.stats.words += self.words;
+        self.port_free_at = now + self.words;
+        self.queued += 1;
+        self.inflight[r.cluster as usize].push_back(InFlight {
+            ready: now + self.latency + self.words,
+            cluster: r.cluster,
+            arrival: PatchArrival {
+                patch: r.patch,
+                ctu: r.ctu,
+            },
+        });
+        self.last_grant = i as u32;
+        self.next = (i + 1) % n;
     }
 }
 

@@ -60,6 +60,7 @@ impl PatchBuffer {
     }
 
     /// The clock edge of the store.
+    #[inline(always)]
     pub fn commit(&mut self) {
         self.store.commit();
     }
