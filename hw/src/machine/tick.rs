@@ -5,11 +5,14 @@
 use super::links::Links;
 use super::{Machine, TickOrder};
 use crate::config::JobSource;
-use crate::link::UnitId;
+use crate::link::{Link, UnitId};
 use crate::units::balancer::BalancerPorts;
+use crate::units::cluster::Cluster;
+use crate::units::ctu::Ctu;
 use crate::units::ctu::CtuPorts;
 use crate::units::icu::IcuPorts;
 use crate::units::ray_buffer::BundlePorts;
+use std::ops::Range;
 
 impl Machine<'_> {
     /// One clock cycle: tick every unit in `order`, then commit every link.
@@ -20,21 +23,7 @@ impl Machine<'_> {
             // Forward walks the units in `order`'s sequence without reading it (each call
             // below is one unit's arm, inlined); reverse walks `order` itself; only a shuffle
             // needs the scratch copy.
-            TickOrder::Forward => {
-                let k = self.cfg.machine.ctus_per_cluster as usize;
-                self.tick_unit(UnitId::Memory, now);
-                if self.cfg.balance.enabled {
-                    self.tick_unit(UnitId::Balancer, now);
-                }
-                for c in 0..self.clusters.len() {
-                    self.tick_unit(UnitId::PatchBuffer(c), now);
-                    for j in 0..k {
-                        self.tick_unit(UnitId::Ctu(c, j), now);
-                    }
-                    self.tick_unit(UnitId::RayBuffer(c), now);
-                    self.tick_unit(UnitId::Icu(c), now);
-                }
-            }
+            TickOrder::Forward => self.tick_forward(now),
             TickOrder::Reverse => {
                 for i in (0..n).rev() {
                     self.tick_unit(self.order[i], now);
@@ -63,6 +52,81 @@ impl Machine<'_> {
                 self.progress = p;
                 self.last_progress_cycle = now;
             }
+        }
+    }
+
+    /// The forward order: memory, balancer, then per cluster its patch buffer, CTUs, ray
+    /// buffer and ICU — `order`'s sequence, walked over the clusters and their slices of the
+    /// per-CTU link families without indexing per unit.
+    fn tick_forward(&mut self, now: u64) {
+        let k = self.cfg.machine.ctus_per_cluster as usize;
+        let bundle = self.cfg.machine.job_source == JobSource::Bundle;
+        self.tick_unit(UnitId::Memory, now);
+        if self.cfg.balance.enabled {
+            self.tick_unit(UnitId::Balancer, now);
+        }
+        let (scene, rays) = (self.scene, self.rays);
+        let l = &mut self.links;
+        for (c, cl) in self.clusters.iter_mut().enumerate() {
+            let at = c * k..(c + 1) * k;
+            if quiet_cluster(cl, l, c, at.clone()) {
+                // Every unit's cycle would only count: the CTUs' in DONE, the empty ICU's;
+                // the empty buffers add nothing to their occupancy counters.
+                for ctu in &mut cl.ctus {
+                    ctu.finished_cycle();
+                }
+                cl.icu.idle_tick();
+                continue;
+            }
+            cl.patch_buffer.tick(&mut l.arrivals[at.clone()]);
+            let requests = &mut l.requests[at.clone()];
+            let arrivals = &mut l.arrivals[at.clone()];
+            let jobs = &mut l.jobs[at.clone()];
+            let results = &mut l.results[at.clone()];
+            let remote = &mut l.remote_in[at.clone()];
+            let descs = &mut l.descs[at.clone()];
+            let pool = &mut self.pool[at.clone()];
+            for (j, ctu) in cl.ctus.iter_mut().enumerate() {
+                if ctu.idle_tick(now, &results[j], &remote[j], &arrivals[j]) {
+                    continue;
+                }
+                let mut io = CtuPorts {
+                    requests: &mut requests[j],
+                    arrivals: &mut arrivals[j],
+                    jobs: &mut jobs[j],
+                    results: &mut results[j],
+                    remote_results: &mut remote[j],
+                    descs: &mut descs[j],
+                    pool: &mut pool[j],
+                };
+                ctu.tick_active(now, &mut io, &scene.cells);
+            }
+            if bundle {
+                let mut io = BundlePorts {
+                    inputs: &mut l.descs[at.clone()],
+                    from_network: &mut l.net_desc[c],
+                    orders: &mut l.orders[c],
+                    out: &mut l.items[c],
+                    pool: &self.pool,
+                    ctus_per_cluster: k,
+                };
+                cl.ray_buffer.tick_bundle(c as u16, &mut io);
+            } else {
+                cl.ray_buffer.tick(
+                    c as u16,
+                    &mut l.jobs[at.clone()],
+                    &mut l.net_in[c],
+                    &mut l.orders[c],
+                    &mut l.items[c],
+                );
+            }
+            let mut io = IcuPorts {
+                cluster: c as u16,
+                input: &mut cl.ray_buffer.queue,
+                results: &mut l.results[at],
+                remote: &mut l.remote_out[c],
+            };
+            cl.icu.tick(&mut io, rays, &scene.patches, &scene.formats);
         }
     }
 
@@ -163,6 +227,22 @@ impl Machine<'_> {
         }
         a
     }
+}
+
+/// True when cluster `c` has nothing to do this cycle: its CTUs are finished, its patch
+/// buffer, ray buffer and ICU are empty, and nothing waits at the ray buffer's inputs (at the
+/// last edge, as each unit's own idle test sees it).
+#[inline(always)]
+fn quiet_cluster(cl: &Cluster, l: &Links, c: usize, at: Range<usize>) -> bool {
+    cl.ctus.iter().all(Ctu::is_finished)
+        && cl.icu.is_empty()
+        && cl.ray_buffer.is_empty()
+        && cl.patch_buffer.store.is_empty()
+        && l.orders[c].is_empty()
+        && l.net_in[c].is_empty()
+        && l.net_desc[c].is_empty()
+        && l.jobs[at.clone()].iter().all(Link::is_empty)
+        && l.descs[at].iter().all(Link::is_empty)
 }
 
 /// A deterministic Fisher–Yates shuffle (splitmix64).

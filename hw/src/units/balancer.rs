@@ -48,6 +48,15 @@ fn deliver<T: Copy>(
     }
 }
 
+/// True when some queue's front entry has arrived by `now`; `queued` counts the entries of
+/// all of `queues`, so empty queues are not walked.
+fn arrived<T>(now: u64, queues: &[VecDeque<(u64, T)>], queued: usize) -> bool {
+    queued > 0
+        && queues
+            .iter()
+            .any(|q| q.front().is_some_and(|&(a, _)| a <= now))
+}
+
 /// A cluster's work request.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct Request {
@@ -86,6 +95,11 @@ pub struct Balancer {
     /// Entries of `inbound`, `inbound_desc` and `returns` (all clusters): a family with none
     /// is not walked.
     queued: [usize; 3],
+    /// Split orders out (requests `ordered`): only then can a work-item be on its way back.
+    orders_out: usize,
+    /// Jobs moved whose results have not come back from the ICU that computed them: only
+    /// then can a remote result wait at an ICU's link.
+    away: u64,
     /// A cluster asks for work when its ray buffer holds at most this many jobs: 0 (empty)
     /// for `job_source = "ctu"`; for `"bundle"` a work-item's worth, so the next one is on
     /// the link while the last is computed.
@@ -119,6 +133,8 @@ impl Balancer {
             inbound_desc: vec![VecDeque::new(); clusters],
             returns: vec![VecDeque::new(); clusters],
             queued: [0; 3],
+            orders_out: 0,
+            away: 0,
             low_water: 0,
             stats: BalancerStats::default(),
         }
@@ -140,11 +156,17 @@ impl Balancer {
 
     /// True when cluster `c` would raise a new request this cycle.
     pub fn would_request(&self, c: usize, occupancy: usize, net_in_empty: bool) -> bool {
+        self.wants_work(c, occupancy, || net_in_empty)
+    }
+
+    /// [`Balancer::would_request`] with the links' test last (read only when needed).
+    #[inline(always)]
+    fn wants_work(&self, c: usize, occupancy: usize, net_in_empty: impl FnOnce() -> bool) -> bool {
         self.requests[c].is_none()
             && occupancy <= self.low_water
             && self.inbound[c].is_empty()
             && self.inbound_desc[c].is_empty()
-            && net_in_empty
+            && net_in_empty()
     }
 
     /// True when cluster `c` has asked for work and not yet got it.
@@ -199,18 +221,9 @@ impl Balancer {
             .iter()
             .flatten()
             .any(|r| !r.ordered && r.next_try <= now)
-            || self
-                .inbound
-                .iter()
-                .any(|q| q.front().is_some_and(|&(a, _)| a <= now))
-            || self
-                .returns
-                .iter()
-                .any(|q| q.front().is_some_and(|&(a, _)| a <= now))
-            || self
-                .inbound_desc
-                .iter()
-                .any(|q| q.front().is_some_and(|&(a, _)| a <= now))
+            || arrived(now, &self.inbound, self.queued[0])
+            || arrived(now, &self.returns, self.queued[2])
+            || arrived(now, &self.inbound_desc, self.queued[1])
     }
 
     fn link_cycles(&self, words: u64) -> u64 {
@@ -221,9 +234,10 @@ impl Balancer {
     pub fn tick(&mut self, now: u64, io: &mut BalancerPorts) {
         let n = self.requests.len();
         // Work-items from victims go onto the link (or, empty, send their thief to wait).
-        for c in 0..n {
+        for c in 0..if self.orders_out > 0 { n } else { 0 } {
             if io.items[c].peek().is_some() {
                 let item = io.items[c].pop(ME);
+                self.orders_out -= 1;
                 let thief = item.to as usize;
                 if let Some(d) = item.desc {
                     let words = d.link_words();
@@ -232,6 +246,7 @@ impl Balancer {
                     self.queued[1] += 1;
                     self.stats.work_items += 1;
                     self.stats.jobs_moved += d.jobs() as u64;
+                    self.away += d.jobs() as u64;
                     self.stats.link_words += words;
                     self.requests[thief] = None;
                 } else if item.jobs.is_empty() {
@@ -248,6 +263,7 @@ impl Balancer {
                     }
                     self.stats.work_items += 1;
                     self.stats.jobs_moved += item.jobs.len() as u64;
+                    self.away += item.jobs.len() as u64;
                     self.stats.link_words += item.jobs.len() as u64 * JOB_WORDS as u64;
                     self.requests[thief] = None;
                 }
@@ -267,9 +283,10 @@ impl Balancer {
             &mut self.queued[1],
         );
         // Results of moved jobs go home.
-        for c in 0..n {
+        for c in 0..if self.away > 0 { n } else { 0 } {
             if io.from_icus[c].peek().is_some() {
                 let r = io.from_icus[c].pop(ME);
+                self.away -= 1;
                 let at = now + self.link_cycles(JOB_WORDS as u64);
                 self.returns[r.owner as usize].push_back((at, r));
                 self.queued[2] += 1;
@@ -288,23 +305,28 @@ impl Balancer {
                 }
             }
         }
-        // New requests from clusters whose ray buffer ran empty with nothing on its way.
+        // Per cluster: a new request from one whose ray buffer ran empty with nothing on its
+        // way, then due requests served (one split order per victim per cycle). Serving
+        // cluster c touches nothing a later cluster's request reads, so one walk does both.
         for c in 0..n {
-            let net_empty = io.to_ray_buffers[c].is_empty() && io.desc_to_ray_buffers[c].is_empty();
-            if self.would_request(c, io.occupancy[c], net_empty) {
-                self.requests[c] = Some(Request {
-                    next_try: now,
-                    ordered: false,
-                });
-                self.stats.work_requests += 1;
-            }
-        }
-        // Serve due requests: one split order per victim per cycle.
-        for c in 0..n {
-            let Some(r) = self.requests[c] else { continue };
-            if r.ordered || r.next_try > now {
-                continue;
-            }
+            let r = match self.requests[c] {
+                Some(r) if r.ordered || r.next_try > now => continue,
+                Some(r) => r,
+                None => {
+                    let net_empty =
+                        || io.to_ray_buffers[c].is_empty() && io.desc_to_ray_buffers[c].is_empty();
+                    if !self.wants_work(c, io.occupancy[c], net_empty) {
+                        continue;
+                    }
+                    let r = Request {
+                        next_try: now,
+                        ordered: false,
+                    };
+                    self.requests[c] = Some(r);
+                    self.stats.work_requests += 1;
+                    r
+                }
+            };
             match self.victim(c, io) {
                 Some(v) => {
                     io.orders[v].push(
@@ -315,6 +337,7 @@ impl Balancer {
                         },
                     );
                     self.requests[c] = Some(Request { ordered: true, ..r });
+                    self.orders_out += 1;
                     self.stats.split_orders += 1;
                 }
                 None => {

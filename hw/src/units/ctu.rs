@@ -198,6 +198,11 @@ pub struct CtuPorts<'a> {
 #[derive(Clone, Debug)]
 pub struct Ctu {
     p: CtuParams,
+    /// Its end of its links (rule 7).
+    me: UnitId,
+    /// The sector is finished ([`Ctu::done`]) with no load pending: no result and no patch
+    /// can reach it any more, so every later cycle is an idle one in DONE.
+    finished: bool,
     pub state: CtuState,
     slots: Vec<RaySlot>,
     /// Slots of the rays not retired at the last join, ascending.
@@ -254,6 +259,8 @@ impl Ctu {
             .collect();
         Ctu {
             p,
+            me: UnitId::Ctu(p.cluster as usize, p.local as usize),
+            finished: false,
             state: CtuState::Idle,
             remaining: (0..slots.len() as u32).collect(),
             slots,
@@ -386,24 +393,57 @@ impl Ctu {
     /// One clock cycle.
     #[inline]
     pub fn tick(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
-        // Provably idle (`idle_now`) with nothing at its inputs: the cycle would change
-        // nothing but the counters `skip` advances.
-        if io.results.is_empty()
-            && io.remote_results.is_empty()
-            && io.arrivals.is_empty()
-            && self.idle_now(now)
-        {
-            self.skip(1);
-            return;
+        if !self.idle_tick(now, io.results, io.remote_results, io.arrivals) {
+            self.tick_active(now, io, cells);
         }
-        self.tick_active(now, io, cells);
+    }
+
+    /// The cycle when it is provably idle (`idle_now`) with nothing at its inputs: it would
+    /// change nothing but the counters `skip` advances, so only they move, and it returns
+    /// true; otherwise false, and the cycle is [`Ctu::tick_active`]'s. The machine calls it
+    /// before building the ports.
+    #[inline(always)]
+    pub fn idle_tick(
+        &mut self,
+        now: u64,
+        results: &Link<JobResult>,
+        remote_results: &Link<JobResult>,
+        arrivals: &Link<PatchArrival>,
+    ) -> bool {
+        if self.finished {
+            self.finished_cycle();
+            return true;
+        }
+        let idle = results.is_empty()
+            && remote_results.is_empty()
+            && arrivals.is_empty()
+            && self.idle_now(now);
+        if idle {
+            self.skip(1);
+            self.finished = self.done() && self.pending_loads == 0;
+        }
+        idle
+    }
+
+    /// True once the sector is finished with no load pending: nothing can reach the CTU any
+    /// more, and every cycle is [`Ctu::finished_cycle`].
+    #[inline(always)]
+    pub fn is_finished(&self) -> bool {
+        self.finished
+    }
+
+    /// A cycle of a finished CTU: `skip(1)` in DONE.
+    #[inline(always)]
+    pub fn finished_cycle(&mut self) {
+        self.stats.state_cycles.done += 1;
+        self.stats.idle_cycles += 1;
     }
 
     /// A cycle with something to do (or to check).
     #[inline(never)]
-    fn tick_active(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
+    pub fn tick_active(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
         self.stats.state_cycles.add(self.state, 1);
-        let me = UnitId::Ctu(self.p.cluster as usize, self.p.local as usize);
+        let me = self.me;
         let mut busy = false;
         let mut stalled = false;
         // Result ports: one local and one remote result per cycle, each through a compare

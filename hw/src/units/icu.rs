@@ -187,12 +187,19 @@ impl Icu {
         patches: &[PatchRecord],
         f: &Formats,
     ) {
-        self.stats.stage_cycles += self.slots.len() as u64;
         if self.count == 0 && io.input.peek().is_none() {
-            self.stats.idle_cycles += 1;
+            self.idle_tick();
             return;
         }
+        self.stats.stage_cycles += self.slots.len() as u64;
         self.tick_active(io, rays, patches, f);
+    }
+
+    /// The cycle of an empty ICU with nothing at its input: only the counters move.
+    #[inline(always)]
+    pub fn idle_tick(&mut self) {
+        self.stats.stage_cycles += self.slots.len() as u64;
+        self.stats.idle_cycles += 1;
     }
 
     /// A cycle with a job inside or waiting at the input.

@@ -57,6 +57,8 @@ pub struct Memory {
     next: usize,
     /// Records on their way, one queue per cluster (each in grant order).
     inflight: Vec<VecDeque<InFlight>>,
+    /// Records in all of `inflight` (the delivery walk is skipped when there are none).
+    queued: usize,
     /// The requester granted last (for waveforms); `u32::MAX` before the first grant.
     pub last_grant: u32,
     pub stats: MemoryStats,
@@ -73,6 +75,7 @@ impl Memory {
             port_free_at: 0,
             next: 0,
             inflight: vec![VecDeque::new(); clusters],
+            queued: 0,
             last_grant: u32::MAX,
             stats: MemoryStats::default(),
         }
@@ -80,7 +83,7 @@ impl Memory {
 
     /// Records on their way.
     pub fn inflight(&self) -> usize {
-        self.inflight.iter().map(VecDeque::len).sum()
+        self.queued
     }
 
     /// True when the port is occupied at cycle `now`.
@@ -124,24 +127,49 @@ impl Memory {
 
     /// One clock cycle: deliver a ready record, then grant a waiting request if the port is
     /// free. `requests` are indexed by requester (cluster-major); `buffers` by cluster.
+    #[inline(always)]
     pub fn tick(
         &mut self,
         now: u64,
         requests: &mut [Link<MemRequest>],
         buffers: &mut (impl Stores + ?Sized),
     ) {
+        // Nothing on its way and (the port busy, or nothing asked for): the cycle changes
+        // nothing but the busy count.
         if now < self.port_free_at {
             self.stats.busy_cycles += 1;
+            if self.queued == 0 {
+                return;
+            }
+        } else if self.queued == 0 && requests.iter().all(Link::is_empty) {
+            return;
         }
+        self.tick_active(now, requests, buffers);
+    }
+
+    /// A cycle with the port busy, a record on its way or a request waiting.
+    #[inline(never)]
+    fn tick_active(
+        &mut self,
+        now: u64,
+        requests: &mut [Link<MemRequest>],
+        buffers: &mut (impl Stores + ?Sized),
+    ) {
         // Deliver: each cluster's oldest ready record, if its patch buffer has room.
         let mut stalled = false;
-        for (c, q) in self.inflight.iter_mut().enumerate() {
+        let walk = if self.queued > 0 {
+            self.inflight.len()
+        } else {
+            0
+        };
+        for (c, q) in self.inflight[..walk].iter_mut().enumerate() {
             if let Some(f) = q.front() {
                 if f.ready <= now {
                     let b = buffers.store(c);
                     if b.can_push() {
                         b.push(UnitId::Memory, f.arrival);
                         q.pop_front();
+                        self.queued -= 1;
                     } else {
                         stalled = true;
                     }
@@ -157,28 +185,33 @@ impl Memory {
             ArbiterPolicy::RoundRobin => self.next,
             ArbiterPolicy::FixedPriority => 0,
         };
-        let mut i = start;
-        for _ in 0..n {
-            if requests[i].peek().is_some() {
-                let r = requests[i].pop(UnitId::Memory);
-                self.stats.grants += 1;
-                self.stats.wait_cycles += now - r.issued;
-                self.stats.words += self.words;
-                self.port_free_at = now + self.words;
-                self.inflight[r.cluster as usize].push_back(InFlight {
-                    ready: now + self.latency + self.words,
-                    cluster: r.cluster,
-                    arrival: PatchArrival {
-                        patch: r.patch,
-                        ctu: r.ctu,
-                    },
-                });
-                self.last_grant = i as u32;
-                self.next = (i + 1) % n;
-                return;
-            }
-            i = if i + 1 == n { 0 } else { i + 1 };
-        }
+        // The first requester waiting from `start` on, wrapping (the memory is every request
+        // link's one consumer, so a link that is not empty shows its front).
+        let waiting = |l: &Link<MemRequest>| !l.is_empty();
+        let Some(i) = requests[start..]
+            .iter()
+            .position(waiting)
+            .map(|p| p + start)
+            .or_else(|| requests[..start].iter().position(waiting))
+        else {
+            return;
+        };
+        let r = requests[i].pop(UnitId::Memory);
+        self.stats.grants += 1;
+        self.stats.wait_cycles += now - r.issued;
+        self.stats.words += self.words;
+        self.port_free_at = now + self.words;
+        self.queued += 1;
+        self.inflight[r.cluster as usize].push_back(InFlight {
+            ready: now + self.latency + self.words,
+            cluster: r.cluster,
+            arrival: PatchArrival {
+                patch: r.patch,
+                ctu: r.ctu,
+            },
+        });
+        self.last_grant = i as u32;
+        self.next = (i + 1) % n;
     }
 }
 

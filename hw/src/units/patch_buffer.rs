@@ -34,7 +34,17 @@ impl PatchBuffer {
 
     /// One clock cycle: hand the oldest patch in the store to its CTU if that CTU's link is
     /// ready.
+    #[inline(always)]
     pub fn tick(&mut self, to_ctus: &mut [Link<PatchArrival>]) {
+        // An empty store adds nothing to the occupancy counters and hands nothing on.
+        if !self.store.is_empty() {
+            self.tick_active(to_ctus);
+        }
+    }
+
+    /// A cycle with a record in the store.
+    #[inline(never)]
+    fn tick_active(&mut self, to_ctus: &mut [Link<PatchArrival>]) {
         let me = UnitId::PatchBuffer(self.cluster);
         let occ = self.store.len() as u64;
         self.stats.occupancy_sum += occ;
@@ -50,6 +60,7 @@ impl PatchBuffer {
     }
 
     /// The clock edge of the store.
+    #[inline(always)]
     pub fn commit(&mut self) {
         self.store.commit();
     }

@@ -101,6 +101,7 @@ impl RayBuffer {
     }
 
     /// The clock edge of the buffer's own stores.
+    #[inline(always)]
     pub fn commit(&mut self) {
         self.queue.commit();
         self.desc_jobs_registered = self.desc_jobs;
@@ -198,6 +199,7 @@ impl RayBuffer {
     /// One clock cycle: carry out a split order (at most `len − 1` jobs off the back, so
     /// never the job the ICU may take), then move one job in from the next input
     /// (round-robin) with one waiting. `cluster` is this buffer's cluster.
+    #[inline(always)]
     pub fn tick(
         &mut self,
         cluster: u16,
@@ -206,7 +208,6 @@ impl RayBuffer {
         orders: &mut Link<SplitOrder>,
         out: &mut Link<WorkItem>,
     ) {
-        let me = UnitId::RayBuffer(cluster as usize);
         let occ = self.queue.len() as u64;
         self.stats.occupancy_sum += occ;
         self.stats.max_occupancy = self.stats.max_occupancy.max(occ);
@@ -214,7 +215,21 @@ impl RayBuffer {
         if orders.is_empty() && from_network.is_empty() && inputs.iter().all(Link::is_empty) {
             return;
         }
-        if orders.peek().is_some() && out.can_push() {
+        self.tick_active(cluster, inputs, from_network, orders, out);
+    }
+
+    /// A cycle with an order or a job waiting at an input.
+    #[inline(never)]
+    fn tick_active(
+        &mut self,
+        cluster: u16,
+        inputs: &mut [Link<Job>],
+        from_network: &mut Link<Job>,
+        orders: &mut Link<SplitOrder>,
+        out: &mut Link<WorkItem>,
+    ) {
+        let me = UnitId::RayBuffer(cluster as usize);
+        if !orders.is_empty() && out.can_push() {
             let o = orders.pop(me);
             let k = (o.jobs as usize).min(self.queue.len().saturating_sub(1));
             // Always answer: an empty work-item tells the balancer there was nothing to give.
@@ -235,27 +250,34 @@ impl RayBuffer {
                 },
             );
         }
-        // Inputs 0..K are the CTUs, K the network.
+        // Inputs 0..K are the CTUs, K the network; the walk starts at `next`. The starting
+        // input turns only when a job moves (an idle cycle changes no state, so the machine's
+        // cycle jump cannot change the order). The buffer is each input's one consumer, so an
+        // input that is not empty shows its front (`peek`); a full queue stays full for the
+        // rest of the cycle.
         let n = inputs.len() + 1;
-        // The starting input turns only when a job moves (an idle cycle changes no state,
-        // so the machine's cycle jump cannot change the order).
-        let mut i = self.next;
-        for _ in 0..n {
-            if !self.queue.can_push() {
-                break;
-            }
+        let start = self.next;
+        for step in 0..n {
+            let i = if start + step >= n {
+                start + step - n
+            } else {
+                start + step
+            };
             let link = if i < inputs.len() {
                 &mut inputs[i]
             } else {
                 &mut *from_network
             };
-            if link.peek().is_some() {
-                let job = link.pop(me);
-                self.queue.push(me, job);
-                self.stats.jobs_in += 1;
-                self.next = if i + 1 == n { 0 } else { i + 1 };
+            if link.is_empty() {
+                continue;
             }
-            i = if i + 1 == n { 0 } else { i + 1 };
+            if !self.queue.can_push() {
+                break;
+            }
+            let job = link.pop(me);
+            self.queue.push(me, job);
+            self.stats.jobs_in += 1;
+            self.next = if i + 1 == n { 0 } else { i + 1 };
         }
     }
 }
