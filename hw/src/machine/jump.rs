@@ -9,7 +9,7 @@ impl Machine<'_> {
     pub(super) fn quiet_until(&self, now: u64) -> Option<u64> {
         // The cheapest test that fails while the machine works comes first, and each test
         // runs only when the ones before it passed (all of them are pure reads).
-        if !(self.clusters.iter().all(|c| c.is_empty()) && self.links.all_empty()) {
+        if self.some_cluster_busy() || !self.links.all_empty() {
             return None;
         }
         let balancer_acts = self.cfg.balance.enabled

@@ -34,6 +34,7 @@ use crate::units::memory::Memory;
 use crate::units::patch_buffer::PatchBuffer;
 use crate::units::ray_buffer::RayBuffer;
 use crate::units::ray_pool::RayList;
+use std::cell::Cell;
 
 /// The order units are ticked in within a cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -71,6 +72,9 @@ pub struct Machine<'a> {
     probe_values: Vec<u64>,
     /// Cycles the clock jumped over (not in the statistics, which must not depend on it).
     pub skipped_cycles: u64,
+    /// A cluster that held work (its ICU or a buffer not empty) at the last look: the run
+    /// loop's end and jump tests look at it first, as it most likely still does.
+    busy: Cell<usize>,
     progress: u64,
     last_progress_cycle: u64,
 }
@@ -178,6 +182,7 @@ impl<'a> Machine<'a> {
             scopes: None,
             probe_values: Vec::new(),
             skipped_cycles: 0,
+            busy: Cell::new(0),
             progress: 0,
             last_progress_cycle: 0,
         }
@@ -219,9 +224,30 @@ impl<'a> Machine<'a> {
         c * per_cluster + c * k * per_ctu + rays as u64 * 64 + bundle
     }
 
+    /// True when some cluster's ICU or buffers hold work (then the machine is neither done
+    /// nor quiet). Looks at the last busy cluster first; a pure read but for that hint.
+    #[inline]
+    fn some_cluster_busy(&self) -> bool {
+        if self
+            .clusters
+            .get(self.busy.get())
+            .is_some_and(|c| !c.is_empty())
+        {
+            return true;
+        }
+        match self.clusters.iter().position(|c| !c.is_empty()) {
+            Some(c) => {
+                self.busy.set(c);
+                true
+            }
+            None => false,
+        }
+    }
+
     /// True when every sector is finished and nothing is in flight.
     pub fn done(&self) -> bool {
-        self.clusters.iter().all(Cluster::drained)
+        !self.some_cluster_busy()
+            && self.clusters.iter().all(Cluster::drained)
             && self.memory.inflight() == 0
             && self.links.all_empty()
             && self.balancer.idle()
