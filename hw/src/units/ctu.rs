@@ -954,6 +954,41 @@ mod tests {
     }
 
     #[test]
+    fn a_finished_ctu_counts_only_idle_cycles_in_done() {
+        let (mut ctu, ..) = run(params(64));
+        assert!(ctu.done());
+        assert!(!ctu.is_finished(), "finished is noticed on its next cycle");
+        let (cells, _) = scene();
+        let me = UnitId::Ctu(0, 0);
+        let mut requests = Link::new(1).wired(me, UnitId::Memory);
+        let mut arrivals = Link::new(2).wired(UnitId::PatchBuffer(0), me);
+        let mut jobs = Link::new(2).wired(me, UnitId::RayBuffer(0));
+        let mut results = Link::new(2).wired(UnitId::Icu(0), me);
+        let mut remote = Link::new(2).wired(UnitId::Balancer, me);
+        let mut descs = Link::new(2).wired(me, UnitId::RayBuffer(0));
+        let mut pool = RayList::new(&[0, 1]);
+        let before = ctu.stats;
+        for now in 500..510 {
+            let mut io = CtuPorts {
+                requests: &mut requests,
+                arrivals: &mut arrivals,
+                jobs: &mut jobs,
+                results: &mut results,
+                remote_results: &mut remote,
+                descs: &mut descs,
+                pool: &mut pool,
+            };
+            ctu.tick(now, &mut io, &cells);
+        }
+        assert!(ctu.is_finished());
+        let mut want = before;
+        want.state_cycles.done += 10;
+        want.idle_cycles += 10;
+        assert_eq!(ctu.stats, want);
+        assert_eq!(ctu.state, CtuState::Done);
+    }
+
+    #[test]
     fn the_fsm_walks_its_states_and_issues_one_job_per_ray_and_patch() {
         let (ctu, states, asked, issued) = run(params(64));
         assert!(ctu.done(), "{states:?}");

@@ -330,6 +330,40 @@ mod tests {
     }
 
     #[test]
+    fn the_inputs_take_turns_and_a_full_queue_stops_the_walk() {
+        // Two CTU inputs and the network hold two jobs each; the queue holds 2, and its ICU
+        // pops one per cycle from cycle 1 on.
+        let mut b = RayBuffer::new(2, 3);
+        let mut inputs = vec![Link::new(2), Link::new(2)];
+        let mut net = Link::new(2);
+        let (mut orders, mut out) = (Link::new(1), Link::new(1));
+        for k in 0..2 {
+            inputs[0].push(UnitId::Ctu(0, 0), job(10 + k));
+            inputs[1].push(UnitId::Ctu(0, 1), job(20 + k));
+            net.push(UnitId::Balancer, job(30 + k));
+            inputs.iter_mut().for_each(Link::commit);
+            net.commit();
+        }
+        let (mut taken, mut per_cycle) = (vec![], vec![]);
+        for cycle in 0..8 {
+            let before = b.stats.jobs_in;
+            b.tick(0, &mut inputs, &mut net, &mut orders, &mut out);
+            per_cycle.push(b.stats.jobs_in - before);
+            if cycle >= 1 && b.queue.peek().is_some() {
+                taken.push(b.queue.pop(UnitId::Icu(0)).ray);
+            }
+            inputs.iter_mut().for_each(Link::commit);
+            net.commit();
+            b.commit();
+        }
+        // Cycle 0 fills the queue from inputs 0 and 1; at 1 it is full (a staged pop frees
+        // nothing); then one job a cycle, each from the input whose turn it is: the network
+        // (skipped while full), input 0, input 1, the network.
+        assert_eq!(per_cycle, vec![2, 0, 1, 1, 1, 1, 0, 0]);
+        assert_eq!(taken, vec![10, 20, 30, 11, 21, 31]);
+    }
+
+    #[test]
     fn a_split_takes_jobs_from_the_back() {
         let (mut b, mut inputs) = filled(5);
         let w = split(&mut b, &mut inputs, 3, false);
