@@ -235,7 +235,7 @@ impl Balancer {
         let n = self.requests.len();
         // Work-items from victims go onto the link (or, empty, send their thief to wait).
         for c in 0..if self.orders_out > 0 { n } else { 0 } {
-            if io.items[c].peek().is_some() {
+            if io.items[c].valid() {
                 let item = io.items[c].pop(ME);
                 self.orders_out -= 1;
                 let thief = item.to as usize;
@@ -284,7 +284,7 @@ impl Balancer {
         );
         // Results of moved jobs go home.
         for c in 0..if self.away > 0 { n } else { 0 } {
-            if io.from_icus[c].peek().is_some() {
+            if io.from_icus[c].valid() {
                 let r = io.from_icus[c].pop(ME);
                 self.away -= 1;
                 let at = now + self.link_cycles(JOB_WORDS as u64);

@@ -449,7 +449,7 @@ impl Ctu {
         // Result ports: one local and one remote result per cycle, each through a compare
         // stage of the datapath (two results for one ray apply in port order).
         for port in [&mut *io.results, &mut *io.remote_results] {
-            if port.peek().is_some() {
+            if port.valid() {
                 let r = port.pop(me);
                 let slot = &mut self.slots[r.slot as usize];
                 if let Some(t) = r.t {
@@ -500,7 +500,7 @@ impl Ctu {
                 };
                 if io.arrivals.peek().is_some_and(held) {
                     stalled = true;
-                } else if io.arrivals.peek().is_some() {
+                } else if io.arrivals.valid() {
                     if io.descs.can_push() {
                         let a = io.arrivals.pop(me);
                         self.arrived(a.patch);
@@ -530,7 +530,7 @@ impl Ctu {
                 }
             }
             None => {
-                if io.arrivals.peek().is_some() {
+                if io.arrivals.valid() {
                     let a = io.arrivals.pop(me);
                     self.arrived(a.patch);
                     if !self.remaining.is_empty() {
