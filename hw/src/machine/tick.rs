@@ -79,25 +79,20 @@ impl Machine<'_> {
                 continue;
             }
             cl.patch_buffer.tick(&mut l.arrivals[at.clone()]);
-            let requests = &mut l.requests[at.clone()];
-            let arrivals = &mut l.arrivals[at.clone()];
-            let jobs = &mut l.jobs[at.clone()];
-            let results = &mut l.results[at.clone()];
-            let remote = &mut l.remote_in[at.clone()];
-            let descs = &mut l.descs[at.clone()];
-            let pool = &mut self.pool[at.clone()];
+            // The idle test reads three links; the others are reached only for an active CTU.
             for (j, ctu) in cl.ctus.iter_mut().enumerate() {
-                if ctu.idle_tick(now, &results[j], &remote[j], &arrivals[j]) {
+                let i = at.start + j;
+                if ctu.idle_tick(now, &l.results[i], &l.remote_in[i], &l.arrivals[i]) {
                     continue;
                 }
                 let mut io = CtuPorts {
-                    requests: &mut requests[j],
-                    arrivals: &mut arrivals[j],
-                    jobs: &mut jobs[j],
-                    results: &mut results[j],
-                    remote_results: &mut remote[j],
-                    descs: &mut descs[j],
-                    pool: &mut pool[j],
+                    requests: &mut l.requests[i],
+                    arrivals: &mut l.arrivals[i],
+                    jobs: &mut l.jobs[i],
+                    results: &mut l.results[i],
+                    remote_results: &mut l.remote_in[i],
+                    descs: &mut l.descs[i],
+                    pool: &mut self.pool[i],
                 };
                 ctu.tick_active(now, &mut io, &scene.cells);
             }

@@ -235,7 +235,7 @@ impl Balancer {
         let n = self.requests.len();
         // Work-items from victims go onto the link (or, empty, send their thief to wait).
         for c in 0..if self.orders_out > 0 { n } else { 0 } {
-            if io.items[c].peek().is_some() {
+            if io.items[c].valid() {
                 let item = io.items[c].pop(ME);
                 self.orders_out -= 1;
                 let thief = item.to as usize;
@@ -284,7 +284,7 @@ impl Balancer {
         );
         // Results of moved jobs go home.
         for c in 0..if self.away > 0 { n } else { 0 } {
-            if io.from_icus[c].peek().is_some() {
+            if io.from_icus[c].valid() {
                 let r = io.from_icus[c].pop(ME);
                 self.away -= 1;
                 let at = now + self.link_cycles(JOB_WORDS as u64);
@@ -587,5 +587,54 @@ mod tests {
         assert_eq!(arrived, vec![(1 + 4 + w, 7), (1 + 4 + 2 * w, 8)]);
         assert_eq!(b.stats.jobs_moved, 2);
         assert!(!b.requesting(0));
+    }
+
+    #[test]
+    fn the_results_of_moved_jobs_go_home_each_after_its_link_time() {
+        // Cluster 1 gives two jobs to cluster 0, whose ICU sends both results back.
+        let mut b = Balancer::new(cfg(VictimPolicy::MostPending), 2);
+        let mut net = Net::new(2);
+        net.tick(&mut b, 0, &[0, 5]);
+        net.order(1).unwrap();
+        let moved = |ray| Job {
+            owner: 1,
+            ..job(ray)
+        };
+        net.items[1].push(
+            UnitId::RayBuffer(1),
+            WorkItem {
+                from: 1,
+                to: 0,
+                jobs: vec![moved(7), moved(8)],
+                desc: None,
+            },
+        );
+        net.commit();
+        let result = |slot| RemoteResult {
+            owner: 1,
+            ctu: 0,
+            result: JobResult {
+                slot,
+                patch: 0,
+                t: Some(slot as i64),
+            },
+        };
+        let mut home = vec![];
+        for now in 1..60 {
+            // The ICU answers at cycles 20 and 21.
+            if now == 20 || now == 21 {
+                net.remote_out[0].push(UnitId::Icu(0), result(now as u32));
+            }
+            net.tick(&mut b, now, &[1, 3]);
+            if net.remote_in[1].peek().is_some() {
+                home.push((now, net.remote_in[1].pop(UnitId::Ctu(1, 0)).slot));
+                net.remote_in[1].commit();
+            }
+        }
+        // Taken the cycle after it was sent, then link_latency + one job's words.
+        let at = 4 + JOB_WORDS as u64;
+        assert_eq!(home, vec![(21 + at, 20), (22 + at, 21)]);
+        assert_eq!(b.stats.results_returned, 2);
+        assert!(b.idle());
     }
 }

@@ -449,7 +449,7 @@ impl Ctu {
         // Result ports: one local and one remote result per cycle, each through a compare
         // stage of the datapath (two results for one ray apply in port order).
         for port in [&mut *io.results, &mut *io.remote_results] {
-            if port.peek().is_some() {
+            if port.valid() {
                 let r = port.pop(me);
                 let slot = &mut self.slots[r.slot as usize];
                 if let Some(t) = r.t {
@@ -500,7 +500,7 @@ impl Ctu {
                 };
                 if io.arrivals.peek().is_some_and(held) {
                     stalled = true;
-                } else if io.arrivals.peek().is_some() {
+                } else if io.arrivals.valid() {
                     if io.descs.can_push() {
                         let a = io.arrivals.pop(me);
                         self.arrived(a.patch);
@@ -530,7 +530,7 @@ impl Ctu {
                 }
             }
             None => {
-                if io.arrivals.peek().is_some() {
+                if io.arrivals.valid() {
                     let a = io.arrivals.pop(me);
                     self.arrived(a.patch);
                     if !self.remaining.is_empty() {
@@ -951,6 +951,41 @@ mod tests {
         fn commit(&mut self) {
             Link::commit(self);
         }
+    }
+
+    #[test]
+    fn a_finished_ctu_counts_only_idle_cycles_in_done() {
+        let (mut ctu, ..) = run(params(64));
+        assert!(ctu.done());
+        assert!(!ctu.is_finished(), "finished is noticed on its next cycle");
+        let (cells, _) = scene();
+        let me = UnitId::Ctu(0, 0);
+        let mut requests = Link::new(1).wired(me, UnitId::Memory);
+        let mut arrivals = Link::new(2).wired(UnitId::PatchBuffer(0), me);
+        let mut jobs = Link::new(2).wired(me, UnitId::RayBuffer(0));
+        let mut results = Link::new(2).wired(UnitId::Icu(0), me);
+        let mut remote = Link::new(2).wired(UnitId::Balancer, me);
+        let mut descs = Link::new(2).wired(me, UnitId::RayBuffer(0));
+        let mut pool = RayList::new(&[0, 1]);
+        let before = ctu.stats;
+        for now in 500..510 {
+            let mut io = CtuPorts {
+                requests: &mut requests,
+                arrivals: &mut arrivals,
+                jobs: &mut jobs,
+                results: &mut results,
+                remote_results: &mut remote,
+                descs: &mut descs,
+                pool: &mut pool,
+            };
+            ctu.tick(now, &mut io, &cells);
+        }
+        assert!(ctu.is_finished());
+        let mut want = before;
+        want.state_cycles.done += 10;
+        want.idle_cycles += 10;
+        assert_eq!(ctu.stats, want);
+        assert_eq!(ctu.state, CtuState::Done);
     }
 
     #[test]

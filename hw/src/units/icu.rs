@@ -187,7 +187,7 @@ impl Icu {
         patches: &[PatchRecord],
         f: &Formats,
     ) {
-        if self.count == 0 && io.input.peek().is_none() {
+        if self.count == 0 && !io.input.valid() {
             self.idle_tick();
             return;
         }
@@ -271,7 +271,7 @@ impl Icu {
                 .add(&self.slots[into_result].divide_exceptions);
         }
         self.base = last;
-        if input.peek().is_some() {
+        if input.valid() {
             let job = input.pop(me);
             let mut divide_exceptions = Exceptions::default();
             let t = datapath::intersect_t(

@@ -279,6 +279,47 @@ mod tests {
     }
 
     #[test]
+    fn records_count_in_flight_until_delivered_and_a_full_store_holds_them_back() {
+        // Latency 2, one word: grants at cycles 0, 1, 2 are ready at 3, 4, 5. Cluster 0's
+        // store holds one record and is not read until cycle 20.
+        let mut m = Memory::new(ArbiterPolicy::RoundRobin, 2, 1, 2);
+        let mut req: Vec<Link<MemRequest>> = (0..2)
+            .map(|c| Link::new(2).wired(UnitId::Ctu(c, 0), UnitId::Memory))
+            .collect();
+        for (c, patch) in [(0, 1), (1, 3), (0, 2)] {
+            let r = MemRequest {
+                patch,
+                cluster: c as u16,
+                ctu: 0,
+                issued: 0,
+            };
+            req[c].push(UnitId::Ctu(c, 0), r);
+            req[c].commit();
+        }
+        let mut store = vec![Link::new(1), Link::new(4)];
+        let mut inflight = vec![];
+        for now in 0..30u64 {
+            m.tick(now, &mut req, store.as_mut_slice());
+            inflight.push(m.inflight());
+            if store[1].peek().is_some() {
+                store[1].pop(UnitId::PatchBuffer(1));
+            }
+            if now >= 20 && store[0].peek().is_some() {
+                store[0].pop(UnitId::PatchBuffer(0));
+            }
+            req.iter_mut().for_each(Link::commit);
+            store.iter_mut().for_each(Link::commit);
+        }
+        assert_eq!(&inflight[..5], &[1, 2, 3, 2, 1]);
+        // Patch 2 is ready at 5 but waits for room until the pop at 20 frees it at 21.
+        assert!(inflight[5..=20].iter().all(|&n| n == 1), "{inflight:?}");
+        assert!(inflight[21..].iter().all(|&n| n == 0), "{inflight:?}");
+        assert_eq!(m.stats.delivery_stall_cycles, 16);
+        assert_eq!(m.stats.grants, 3);
+        assert_eq!(m.timer(30), None, "nothing pending");
+    }
+
+    #[test]
     fn a_grant_takes_latency_plus_one_cycle_per_word() {
         let (latency, words) = (5u32, 3u32);
         let mut m = Memory::new(ArbiterPolicy::RoundRobin, latency, words, 1);

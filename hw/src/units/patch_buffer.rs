@@ -43,7 +43,7 @@ impl PatchBuffer {
     }
 
     /// A cycle with a record in the store.
-    #[inline(never)]
+    #[inline(always)]
     fn tick_active(&mut self, to_ctus: &mut [Link<PatchArrival>]) {
         let me = UnitId::PatchBuffer(self.cluster);
         let occ = self.store.len() as u64;

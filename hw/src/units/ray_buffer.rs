@@ -250,35 +250,45 @@ impl RayBuffer {
                 },
             );
         }
-        // Inputs 0..K are the CTUs, K the network; the walk starts at `next`. The starting
-        // input turns only when a job moves (an idle cycle changes no state, so the machine's
-        // cycle jump cannot change the order). The buffer is each input's one consumer, so an
-        // input that is not empty shows its front (`peek`); a full queue stays full for the
-        // rest of the cycle.
-        let n = inputs.len() + 1;
-        let start = self.next;
-        for step in 0..n {
-            let i = if start + step >= n {
-                start + step - n
-            } else {
-                start + step
-            };
-            let link = if i < inputs.len() {
-                &mut inputs[i]
-            } else {
-                &mut *from_network
-            };
-            if link.is_empty() {
-                continue;
+        // Inputs 0..K are the CTUs, K the network; the walk starts at `next`: inputs next..K,
+        // the network, inputs 0..next. The starting input turns only when a job moves (an
+        // idle cycle changes no state, so the machine's cycle jump cannot change the order).
+        let (k, start) = (inputs.len(), self.next);
+        let (before, from) = inputs.split_at_mut(start.min(k));
+        'walk: {
+            for (j, link) in from.iter_mut().enumerate() {
+                if !self.take(me, link, start + j, k) {
+                    break 'walk;
+                }
             }
-            if !self.queue.can_push() {
-                break;
+            if !self.take(me, from_network, k, k) {
+                break 'walk;
             }
-            let job = link.pop(me);
-            self.queue.push(me, job);
-            self.stats.jobs_in += 1;
-            self.next = if i + 1 == n { 0 } else { i + 1 };
+            for (j, link) in before.iter_mut().enumerate() {
+                if !self.take(me, link, j, k) {
+                    break 'walk;
+                }
+            }
         }
+    }
+
+    /// One input's turn in the walk: its waiting job, if any, moves into the queue and the
+    /// next walk starts after it (input `i` of `k` CTU inputs and the network). False when
+    /// the queue is full: it stays full for the rest of the cycle, so the walk ends. The
+    /// buffer is each input's one consumer, so a valid input shows its front (`peek`).
+    #[inline(always)]
+    fn take(&mut self, me: UnitId, link: &mut Link<Job>, i: usize, k: usize) -> bool {
+        if !link.valid() {
+            return true;
+        }
+        if !self.queue.can_push() {
+            return false;
+        }
+        let job = link.pop(me);
+        self.queue.push(me, job);
+        self.stats.jobs_in += 1;
+        self.next = if i == k { 0 } else { i + 1 };
+        true
     }
 }
 
@@ -327,6 +337,40 @@ mod tests {
         b.queue.commit();
         out.commit();
         out.pop(UnitId::Balancer)
+    }
+
+    #[test]
+    fn the_inputs_take_turns_and_a_full_queue_stops_the_walk() {
+        // Two CTU inputs and the network hold two jobs each; the queue holds 2, and its ICU
+        // pops one per cycle from cycle 1 on.
+        let mut b = RayBuffer::new(2, 3);
+        let mut inputs = vec![Link::new(2), Link::new(2)];
+        let mut net = Link::new(2);
+        let (mut orders, mut out) = (Link::new(1), Link::new(1));
+        for k in 0..2 {
+            inputs[0].push(UnitId::Ctu(0, 0), job(10 + k));
+            inputs[1].push(UnitId::Ctu(0, 1), job(20 + k));
+            net.push(UnitId::Balancer, job(30 + k));
+            inputs.iter_mut().for_each(Link::commit);
+            net.commit();
+        }
+        let (mut taken, mut per_cycle) = (vec![], vec![]);
+        for cycle in 0..8 {
+            let before = b.stats.jobs_in;
+            b.tick(0, &mut inputs, &mut net, &mut orders, &mut out);
+            per_cycle.push(b.stats.jobs_in - before);
+            if cycle >= 1 && b.queue.peek().is_some() {
+                taken.push(b.queue.pop(UnitId::Icu(0)).ray);
+            }
+            inputs.iter_mut().for_each(Link::commit);
+            net.commit();
+            b.commit();
+        }
+        // Cycle 0 fills the queue from inputs 0 and 1; at 1 it is full (a staged pop frees
+        // nothing); then one job a cycle, each from the input whose turn it is: the network
+        // (skipped while full), input 0, input 1, the network.
+        assert_eq!(per_cycle, vec![2, 0, 1, 1, 1, 1, 0, 0]);
+        assert_eq!(taken, vec![10, 20, 30, 11, 21, 31]);
     }
 
     #[test]
