@@ -252,12 +252,14 @@ fn compression_code(c: FstCompression) -> u64 {
     match c {
         FstCompression::Lz4 => u32::MAX as u64,
         FstCompression::Zlib(level) => level as u64,
+        FstCompression::Deflate(level) => 0x100 | level as u64,
     }
 }
 
 fn compression_of(code: u64) -> FstCompression {
     match code {
         0xffff_ffff => FstCompression::Lz4,
+        code if code & 0x100 != 0 => FstCompression::Deflate(code as u8),
         level => FstCompression::Zlib(level as u8),
     }
 }
@@ -584,7 +586,8 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
-        /// The writer thread writes the same bytes as the calling thread, over many sections.
+        /// The writer thread writes the same bytes as the calling thread, over many sections
+        /// (LZ4, zlib and libdeflate).
         #[test]
         fn test_background_writes_the_same_bytes(
             lens in prop::collection::vec(0u32..64, 1..10),
@@ -593,9 +596,13 @@ mod tests {
                 0..3000,
             ),
             flush_every in 1usize..500,
-            zlib in any::<bool>(),
+            pack in 0u8..3,
         ) {
-            let c = if zlib { FstCompression::Zlib(1) } else { FstCompression::Lz4 };
+            let c = match pack {
+                0 => FstCompression::Lz4,
+                1 => FstCompression::Zlib(1),
+                _ => FstCompression::Deflate(1),
+            };
             let direct = write(&lens, &changes, flush_every, c, false);
             let thread = write(&lens, &changes, flush_every, c, true);
             prop_assert_eq!(direct, thread);
