@@ -17,9 +17,10 @@ use std::io::{self, BufWriter};
 /// Cut a section (compressed on its own) past this many bytes of encoded value changes.
 const FST_FLUSH_BYTES: usize = 32 << 20;
 
-/// How the sections are compressed: zlib level 1 — the fastest level, which already makes
-/// the FST ~13× smaller than the VCD (BENCHMARKS.md, issue 13).
-const FST_COMPRESSION: FstCompression = FstCompression::Zlib(1);
+/// How the sections are compressed: zlib format through libdeflate at level 1 — the fastest
+/// level, which makes the FST ~18× smaller than the VCD, cheaper than miniz_oxide's zlib
+/// level 1 (~13×) and more than LZ4 (~8.6×, short of issue 13's 10×; BENCHMARKS.md).
+const FST_COMPRESSION: FstCompression = FstCompression::Deflate(1);
 
 /// One probe signal as the FST body writes it.
 #[derive(Clone, Copy)]
@@ -38,8 +39,9 @@ pub(crate) struct FstBody {
     w: FstBodyWriter<BufWriter<File>>,
     /// Per probe signal (the sample's positions): its FST signal and how it is written.
     sigs: Vec<Sig>,
-    /// Per probe signal, a text's values as FST bits: one per name, then "-" (any other).
-    text_bits: Vec<Vec<Vec<u8>>>,
+    /// Per probe signal, a text's values as FST bits: one per name, then "-" (any other);
+    /// each as '0'/'1' and packed eight bits a byte.
+    text_bits: Vec<Vec<(Vec<u8>, Vec<u8>)>>,
     /// Declared signals in the header's order (probe positions).
     order: Vec<usize>,
     /// The last sample's values and the window.
@@ -78,6 +80,17 @@ pub(crate) fn changed_mask8(prev: &[u64; 8], values: &[u64; 8]) -> u32 {
     m
 }
 
+/// '0'/'1' bits packed eight a byte, MSB first, the last byte padded with zeros.
+fn pack_bits(bits: &[u8]) -> Vec<u8> {
+    bits.chunks(8)
+        .map(|c| {
+            c.iter()
+                .enumerate()
+                .fold(0u8, |b, (k, &x)| b | ((x == b'1') as u8) << (7 - k))
+        })
+        .collect()
+}
+
 /// An FST error as an I/O error (the writer reports every failure as "writing: …").
 pub(crate) fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
     match e {
@@ -104,7 +117,13 @@ impl FstBody {
         FstBody {
             w,
             sigs: sigs.collect(),
-            text_bits,
+            text_bits: text_bits
+                .into_iter()
+                .map(|lines| {
+                    let packed = lines.iter().map(|l| pack_bits(l)).collect::<Vec<_>>();
+                    lines.into_iter().zip(packed).collect()
+                })
+                .collect(),
             order,
             prev: vec![0; handles.len()],
             clock: Clock::default(),
@@ -141,8 +160,10 @@ impl FstBody {
         for &(i, v) in &self.text_batch {
             let id = self.sigs[i].id.expect("queued texts are declared");
             let lines = &self.text_bits[i];
-            let line = &lines[(v as usize).min(lines.len() - 1)];
-            self.w.signal_change(id, line).map_err(fst_err)?;
+            let (ascii, packed) = &lines[(v as usize).min(lines.len() - 1)];
+            self.w
+                .signal_change_packed(id, ascii, packed)
+                .map_err(fst_err)?;
         }
         self.text_batch.clear();
         Ok(true)

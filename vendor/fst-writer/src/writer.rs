@@ -301,6 +301,23 @@ impl<W: std::io::Write + std::io::Seek> FstBodyWriter<W> {
         }
     }
 
+    /// A change of a '0'/'1' bit vector signal (wider than one bit) given both as ASCII
+    /// (`ascii`, the signal's length) and packed (`packed`: the same bits eight a byte, MSB
+    /// first, the last byte padded with zeros): the change [`signal_change`](Self::signal_change)
+    /// writes for `ascii`, without packing it again (for values written many times).
+    pub fn signal_change_packed(
+        &mut self,
+        signal_id: FstSignalId,
+        ascii: &[u8],
+        packed: &[u8],
+    ) -> Result<()> {
+        match &mut self.sink {
+            Sink::Direct(d) => d.buffer.signal_change_packed(signal_id, ascii, packed),
+            Sink::Thread(_) => self.signal_change(signal_id, ascii),
+            Sink::Gone => unreachable!("the sink is always set between calls"),
+        }
+    }
+
     /// A change of a bit vector signal of at most 64 bits, given as an integer (its low
     /// bits, MSB = bit `len - 1`): the same as [`signal_change`](Self::signal_change) with
     /// those bits as '0'/'1', without the ASCII round trip.
