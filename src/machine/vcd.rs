@@ -847,7 +847,7 @@ impl VcdWriter {
                 .slots
                 .iter_mut()
                 .map(|s| std::mem::take(&mut s.text_lines));
-            let body = FstBody::new(b, handles, texts.collect(), order.clone());
+            let body = FstBody::new(b, handles, texts.collect(), order.clone())?;
             self.stream = Some(SampleStream::start(body, self.opts.window, over));
             self.declared = order;
             return Ok(());
