@@ -10,7 +10,7 @@
 //! file's bytes do not depend on the timing. Sections are cut every
 //! [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
 
-use super::vcd::{Body, BodyEnd, BodyError, Clock, ThreadBody, Window};
+use super::vcd::{change_masks, Body, BodyEnd, BodyError, Clock, ThreadBody, Window};
 use fst_writer::{FstBodyWriter, FstCompression, FstSignalId};
 use std::fs::File;
 use std::io::{self, BufWriter};
@@ -49,6 +49,8 @@ pub(crate) struct FstBody {
     order: Vec<usize>,
     /// The last sample's values and the window.
     prev: Vec<u64>,
+    /// Per eight values, which of them changed (the compare's pass; reused).
+    masks: Vec<u8>,
     clock: Clock,
     /// One sample's integer changes, handed over together (room for every signal).
     batch: Vec<(FstSignalId, u64)>,
@@ -70,17 +72,6 @@ struct Sig {
     /// The bytes a change of it counts toward a section's size: one for the time delta and
     /// the value's bytes (the crate's own estimate of its chains).
     cost: u32,
-}
-
-/// Bit `k` set when `prev[k] != values[k]`: eight values compared at once (fixed-size arrays,
-/// no bounds checks, no branches).
-#[inline(always)]
-pub(crate) fn changed_mask8(prev: &[u64; 8], values: &[u64; 8]) -> u32 {
-    let mut m = 0u32;
-    for k in 0..8 {
-        m |= ((prev[k] != values[k]) as u32) << k;
-    }
-    m
 }
 
 /// '0'/'1' bits packed eight a byte, MSB first, the last byte padded with zeros.
@@ -130,6 +121,7 @@ impl FstBody {
                 .collect(),
             order,
             prev: vec![0; handles.len()],
+            masks: vec![0; handles.len().div_ceil(8)],
             clock: Clock::default(),
             batch: Vec::with_capacity(handles.len()),
             text_batch: Vec::with_capacity(handles.len()),
@@ -189,48 +181,27 @@ impl Body for FstBody {
         self.write_batch(t).map(|_| ())
     }
 
-    /// Compares `values` with the last sample eight at a time, takes them, and writes time
-    /// `t` and the changed declared values (nothing when none changed); cuts a section past
-    /// [`FST_FLUSH_BYTES`].
+    /// Compares `values` with the last sample (a pass of eight-value change masks), takes
+    /// them, and writes time `t` and the changed declared values (nothing when none
+    /// changed); cuts a section past [`FST_FLUSH_BYTES`].
     fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
-        let mut prev = std::mem::take(&mut self.prev);
-        self.compare(&mut prev, values);
-        self.prev = prev;
+        let mut masks = std::mem::take(&mut self.masks);
+        change_masks(&self.prev, values, &mut masks);
+        self.prev.copy_from_slice(values);
+        for (b, &m) in masks.iter().enumerate() {
+            let mut m = m;
+            while m != 0 {
+                let i = 8 * b + m.trailing_zeros() as usize;
+                m &= m - 1;
+                self.take(i, values[i]);
+            }
+        }
+        self.masks = masks;
         if self.write_batch(t)? && self.stamps.is_multiple_of(256) && self.size > FST_FLUSH_BYTES {
             self.size = 0;
             self.w.flush().map_err(fst_err)?;
         }
         Ok(())
-    }
-}
-
-impl FstBody {
-    /// Compares `values` with `prev` (taking them) and queues the changes.
-    #[inline(always)]
-    fn compare(&mut self, prev: &mut [u64], values: &[u64]) {
-        let n = values.len().min(prev.len());
-        let whole = n - n % 8;
-        // Eight values at a time: a mask of the changed ones, then only those.
-        for base in (0..whole).step_by(8) {
-            let p: &mut [u64; 8] = (&mut prev[base..base + 8]).try_into().expect("8");
-            let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
-            let mut m = changed_mask8(p, v);
-            if m == 0 {
-                continue;
-            }
-            *p = *v;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                self.take(base + k, v[k]);
-            }
-        }
-        for i in whole..n {
-            if prev[i] != values[i] {
-                prev[i] = values[i];
-                self.take(i, values[i]);
-            }
-        }
     }
 }
 

@@ -587,24 +587,7 @@ impl Body for VcdBody {
     /// per value), then the lines of the changed ones.
     fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
         let mut masks = std::mem::take(&mut self.masks);
-        let mut p8 = self.prev.chunks_exact(8);
-        let mut v8 = values.chunks_exact(8);
-        let mut mk = masks.iter_mut();
-        for ((p, v), m) in (&mut p8).zip(&mut v8).zip(&mut mk) {
-            let p: &[u64; 8] = p.try_into().expect("8");
-            let v: &[u64; 8] = v.try_into().expect("8");
-            let mut x = 0u8;
-            for k in 0..8 {
-                x |= ((p[k] != v[k]) as u8) << k;
-            }
-            *m = x;
-        }
-        if let Some(m) = mk.next() {
-            let rest = p8.remainder().iter().zip(v8.remainder());
-            *m = rest
-                .enumerate()
-                .fold(0, |x, (k, (p, v))| x | ((p != v) as u8) << k);
-        }
+        change_masks(&self.prev, values, &mut masks);
         self.prev.copy_from_slice(values);
         let mut stamped = false;
         let mut r = Ok(());
@@ -628,6 +611,30 @@ impl Body for VcdBody {
         }
         self.masks = masks;
         r
+    }
+}
+
+/// The compare pass of a sample against the last, shared by the VCD's and the FST's bodies:
+/// `masks[b]` bit `k` set when value `8b + k` changed (no branch per value; `masks` holds
+/// one byte per eight values, the last for the remainder).
+pub(crate) fn change_masks(prev: &[u64], values: &[u64], masks: &mut [u8]) {
+    let mut p8 = prev.chunks_exact(8);
+    let mut v8 = values.chunks_exact(8);
+    let mut mk = masks.iter_mut();
+    for ((p, v), m) in (&mut p8).zip(&mut v8).zip(&mut mk) {
+        let p: &[u64; 8] = p.try_into().expect("8");
+        let v: &[u64; 8] = v.try_into().expect("8");
+        let mut x = 0u8;
+        for k in 0..8 {
+            x |= ((p[k] != v[k]) as u8) << k;
+        }
+        *m = x;
+    }
+    if let Some(m) = mk.next() {
+        let rest = p8.remainder().iter().zip(v8.remainder());
+        *m = rest
+            .enumerate()
+            .fold(0, |x, (k, (p, v))| x | ((p != v) as u8) << k);
     }
 }
 
