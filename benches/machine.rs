@@ -57,25 +57,32 @@ fn bench(c: &mut Criterion) {
     });
     let dir = std::env::temp_dir().join(format!("shellsim-bench-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    g.bench_function("cycle_model_with_vcd", |b| {
-        b.iter(|| {
-            let path = dir.join("bench.vcd");
-            let opts = shellsim::machine::vcd::VcdOptions {
-                window: shellsim::machine::vcd::Window::ALL,
-                scope: None,
-            };
-            let mut w = shellsim::machine::vcd::VcdWriter::create(&path, opts).unwrap();
-            let mut m = shellsim_hw::machine::Machine::new(
-                hw,
-                &prep.host.scene,
-                &prep.records,
-                &prep.sectors,
-                0,
-            );
-            m.run(TickOrder::Forward, Some(&mut w)).unwrap();
-            black_box(w.finish().unwrap().bytes)
-        })
-    });
+    // The same run writing its whole waveform, VCD and FST (issue 13: each within 2× of
+    // `cycle_model`).
+    for (name, file) in [
+        ("cycle_model_with_vcd", "bench.vcd"),
+        ("cycle_model_with_fst", "bench.fst"),
+    ] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let path = dir.join(file);
+                let opts = shellsim::machine::vcd::VcdOptions {
+                    window: shellsim::machine::vcd::Window::ALL,
+                    scope: None,
+                };
+                let mut w = shellsim::machine::vcd::VcdWriter::create(&path, opts).unwrap();
+                let mut m = shellsim_hw::machine::Machine::new(
+                    hw,
+                    &prep.host.scene,
+                    &prep.records,
+                    &prep.sectors,
+                    0,
+                );
+                m.run(TickOrder::Forward, Some(&mut w)).unwrap();
+                black_box(w.finish().unwrap().bytes)
+            })
+        });
+    }
     // The untimed model doing the same number of (ray, patch) jobs: each high-resolution
     // ray against patches in id order, wrapping, until `jobs` tests are done.
     let host = HostFixed::new(&scene, &path, cfg.datapath, 0.05).unwrap();

@@ -1,23 +1,29 @@
 //! FST output: the value-change half of the waveform writer ([`super::vcd::VcdWriter`]) for a
 //! `.fst` path, on the patched `fst-writer` crate (vendor/fst-writer).
 //!
-//! Each sample's flat value array is compared with the previous one eight values at a time;
-//! each changed declared value goes to the crate as an integer (a text, an FSM state, as the
-//! bits of its ASCII characters). The crate records these calls in blocks for a writer thread
-//! of its own, which encodes them into per-signal change chains, compresses each section with
-//! zlib and writes it — in order, so the file's bytes depend neither on the timing nor on the
-//! thread. Sections are cut every [`FST_FLUSH_BYTES`] of changes so memory stays bounded.
+//! It runs on the waveform's own thread, fed the samples' value arrays in order by the
+//! simulation thread (the VCD's sample stream, `super::vcd`): each sample is compared with
+//! the previous one eight values at a time, and each changed declared value goes to the crate
+//! as an integer (a text, an FSM state, as the bits of its ASCII characters), which encodes
+//! it into its signal's change chain; each section is compressed (zlib format, libdeflate)
+//! and written in turn by the crate's compressor thread while the next one fills, so the
+//! file's bytes do not depend on the timing. Sections are cut every
+//! [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
 
+use super::vcd::{change_masks, Body, BodyEnd, BodyError, Clock, ThreadBody, Window};
 use fst_writer::{FstBodyWriter, FstCompression, FstSignalId};
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter};
 
-/// Cut a section (compressed on its own) past this many bytes of encoded value changes.
-const FST_FLUSH_BYTES: usize = 32 << 20;
+/// Cut a section (compressed on its own, on the crate's compressor thread while the next
+/// one fills) past this many bytes of encoded value changes: at Hi_Low_Ratio 10 nine sections,
+/// so compressing overlaps filling for all but the last (32 MiB: 0.8 % smaller, 5 sections).
+const FST_FLUSH_BYTES: usize = 16 << 20;
 
-/// How the sections are compressed: zlib level 1 — the fastest level, which already makes
-/// the FST ~13× smaller than the VCD (BENCHMARKS.md, issue 13).
-const FST_COMPRESSION: FstCompression = FstCompression::Zlib(1);
+/// How the sections are compressed: zlib format through libdeflate at level 1 — the fastest
+/// level, which makes the FST ~18× smaller than the VCD, cheaper than miniz_oxide's zlib
+/// level 1 (~13×) and more than LZ4 (~8.6×, short of issue 13's 10×; BENCHMARKS.md).
+const FST_COMPRESSION: FstCompression = FstCompression::Deflate(1);
 
 /// One probe signal as the FST body writes it.
 #[derive(Clone, Copy)]
@@ -26,35 +32,57 @@ pub(crate) struct FstHandle {
     pub id: Option<FstSignalId>,
     /// A text (FSM state): written as the bits of its ASCII characters.
     pub text: bool,
+    /// Its width in the FST, in bits (a text's: 8 per character).
+    pub width: u32,
 }
 
-/// The FST's value changes, after the header.
+/// The FST's value changes, after the header, on the waveform's thread (`super::vcd`'s
+/// sample stream): the last sample's values, the window clock, and the crate's body writer.
 pub(crate) struct FstBody {
     w: FstBodyWriter<BufWriter<File>>,
-    /// Per probe signal (the sample's positions), its FST signal when it is a declared
-    /// bit vector (written as an integer).
-    ints: Vec<Option<FstSignalId>>,
-    /// Per probe signal, its FST signal when it is a declared text.
-    texts: Vec<Option<FstSignalId>>,
-    /// Per probe signal, a text's values as FST bits: one per name, then "-" (any other).
-    text_bits: Vec<Vec<Vec<u8>>>,
+    /// Per probe signal (the sample's positions): its FST signal and how it is written.
+    sigs: Vec<Sig>,
+    /// Per probe signal, a text's values as FST bits: one per name, then "-" (any other);
+    /// each as '0'/'1' and packed eight bits a byte.
+    text_bits: Vec<Vec<(Vec<u8>, Vec<u8>)>>,
+    /// Declared signals in the header's order (probe positions).
+    order: Vec<usize>,
+    /// The last sample's values and the window.
+    prev: Vec<u64>,
+    /// Per eight values, which of them changed (the compare's pass; reused).
+    masks: Vec<u8>,
+    clock: Clock,
     /// One sample's integer changes, handed over together (room for every signal).
     batch: Vec<(FstSignalId, u64)>,
     /// One sample's text changes (probe position, value).
     text_batch: Vec<(usize, u64)>,
+    /// Bytes of value changes counted since the last section was cut (see [`FST_FLUSH_BYTES`]).
+    size: usize,
     /// Time changes written (a section may be cut every 256).
     stamps: u64,
 }
 
-/// Bit `k` set when `prev[k] != values[k]`: eight values compared at once (fixed-size arrays,
-/// no bounds checks, no branches).
-#[inline(always)]
-pub(crate) fn changed_mask8(prev: &[u64; 8], values: &[u64; 8]) -> u32 {
-    let mut m = 0u32;
-    for k in 0..8 {
-        m |= ((prev[k] != values[k]) as u32) << k;
-    }
-    m
+/// One probe signal as the body writes it.
+#[derive(Clone, Copy)]
+struct Sig {
+    /// Its FST signal, when declared.
+    id: Option<FstSignalId>,
+    /// A text (FSM state), else a bit vector written as an integer.
+    text: bool,
+    /// The bytes a change of it counts toward a section's size: one for the time delta and
+    /// the value's bytes (the crate's own estimate of its chains).
+    cost: u32,
+}
+
+/// '0'/'1' bits packed eight a byte, MSB first, the last byte padded with zeros.
+fn pack_bits(bits: &[u8]) -> Vec<u8> {
+    bits.chunks(8)
+        .map(|c| {
+            c.iter()
+                .enumerate()
+                .fold(0u8, |b, (k, &x)| b | ((x == b'1') as u8) << (7 - k))
+        })
+        .collect()
 }
 
 /// An FST error as an I/O error (the writer reports every failure as "writing: …").
@@ -67,110 +95,132 @@ pub(crate) fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
 
 impl FstBody {
     /// The body writer `w` (the header written), the signals' handles and texts (by probe
-    /// position); starts the writer thread.
+    /// position) and the declared order; starts the thread that compresses the sections.
     pub(crate) fn new(
         mut w: FstBodyWriter<BufWriter<File>>,
         handles: Vec<FstHandle>,
         text_bits: Vec<Vec<Vec<u8>>>,
+        order: Vec<usize>,
     ) -> io::Result<Self> {
         w.set_compression(FST_COMPRESSION);
-        w.write_in_background().map_err(fst_err)?;
-        let n = handles.len();
+        w.compress_in_background().map_err(fst_err)?;
+        let sigs = handles.iter().map(|h| Sig {
+            id: h.id,
+            text: h.text,
+            cost: 1 + h.width.div_ceil(8),
+        });
         Ok(FstBody {
             w,
-            ints: handles.iter().map(|h| h.id.filter(|_| !h.text)).collect(),
-            texts: handles.iter().map(|h| h.id.filter(|_| h.text)).collect(),
-            text_bits,
-            batch: Vec::with_capacity(n),
-            text_batch: Vec::with_capacity(n),
+            sigs: sigs.collect(),
+            text_bits: text_bits
+                .into_iter()
+                .map(|lines| {
+                    let packed = lines.iter().map(|l| pack_bits(l)).collect::<Vec<_>>();
+                    lines.into_iter().zip(packed).collect()
+                })
+                .collect(),
+            order,
+            prev: vec![0; handles.len()],
+            masks: vec![0; handles.len().div_ceil(8)],
+            clock: Clock::default(),
+            batch: Vec::with_capacity(handles.len()),
+            text_batch: Vec::with_capacity(handles.len()),
+            size: 0,
             stamps: 0,
         })
-    }
-
-    /// Time `t` and every declared value of `values` (in `order`): FST has no `$dumpvars`,
-    /// the first time's values are the initial state.
-    pub(crate) fn dump_all(&mut self, t: u64, order: &[usize], values: &[u64]) -> io::Result<()> {
-        self.w.time_change(t).map_err(fst_err)?;
-        self.stamps += 1;
-        for &i in order {
-            self.take(i, values[i]);
-        }
-        self.write_batch()
     }
 
     /// Queues probe signal `i`'s value `v` when declared.
     #[inline(always)]
     fn take(&mut self, i: usize, v: u64) {
-        if let Some(id) = self.ints[i] {
-            self.batch.push((id, v));
-        } else if self.texts[i].is_some() {
-            self.text_batch.push((i, v));
+        let s = self.sigs[i];
+        if let Some(id) = s.id {
+            self.size += s.cost as usize;
+            if s.text {
+                self.text_batch.push((i, v));
+            } else {
+                self.batch.push((id, v));
+            }
         }
     }
 
-    /// Writes the queued changes (at the current time).
-    fn write_batch(&mut self) -> io::Result<()> {
-        self.w.signal_changes_u64(&self.batch).map_err(fst_err)?;
-        self.batch.clear();
-        for &(i, v) in &self.text_batch {
-            let id = self.texts[i].expect("queued texts are declared");
-            let lines = &self.text_bits[i];
-            let line = &lines[(v as usize).min(lines.len() - 1)];
-            self.w.signal_change(id, line).map_err(fst_err)?;
-        }
-        self.text_batch.clear();
-        Ok(())
-    }
-
-    /// Compares `values` with `prev` (taking them), and writes time `t` and the changed
-    /// declared values. Returns true when it wrote something (a time change).
-    pub(crate) fn write_changes(
-        &mut self,
-        t: u64,
-        prev: &mut [u64],
-        values: &[u64],
-    ) -> io::Result<bool> {
-        let n = values.len().min(prev.len());
-        let whole = n - n % 8;
-        // Eight values at a time: a mask of the changed ones, then only those.
-        for base in (0..whole).step_by(8) {
-            let p: &mut [u64; 8] = (&mut prev[base..base + 8]).try_into().expect("8");
-            let v: &[u64; 8] = values[base..base + 8].try_into().expect("8");
-            let mut m = changed_mask8(p, v);
-            if m == 0 {
-                continue;
-            }
-            *p = *v;
-            while m != 0 {
-                let k = m.trailing_zeros() as usize;
-                m &= m - 1;
-                self.take(base + k, v[k]);
-            }
-        }
-        for i in whole..n {
-            if prev[i] != values[i] {
-                prev[i] = values[i];
-                self.take(i, values[i]);
-            }
-        }
+    /// Writes time `t` and the queued changes, when there are any.
+    fn write_batch(&mut self, t: u64) -> io::Result<bool> {
         if self.batch.is_empty() && self.text_batch.is_empty() {
             return Ok(false);
         }
         self.w.time_change(t).map_err(fst_err)?;
         self.stamps += 1;
-        self.write_batch()?;
-        if self.stamps.is_multiple_of(256) && self.w.size() > FST_FLUSH_BYTES {
-            self.w.flush().map_err(fst_err)?;
+        self.w.signal_changes_u64(&self.batch).map_err(fst_err)?;
+        self.batch.clear();
+        for &(i, v) in &self.text_batch {
+            let id = self.sigs[i].id.expect("queued texts are declared");
+            let lines = &self.text_bits[i];
+            let (ascii, packed) = &lines[(v as usize).min(lines.len() - 1)];
+            self.w
+                .signal_change_packed(id, ascii, packed)
+                .map_err(fst_err)?;
         }
+        self.text_batch.clear();
         Ok(true)
     }
+}
 
-    /// Writes the last section and the header's totals; returns the file's size.
-    pub(crate) fn finish(self) -> io::Result<u64> {
-        let mut w = self.w.finish().map_err(fst_err)?;
-        w.flush()?;
-        let f = w.get_ref();
-        crate::output::sync_file(f)?;
-        f.metadata().map(|m| m.len())
+impl Body for FstBody {
+    fn state(&mut self) -> (&mut Clock, &mut [u64]) {
+        (&mut self.clock, &mut self.prev)
+    }
+
+    /// Time `t` and every declared value (the last sample's): FST has no `$dumpvars`, the
+    /// first time's values are the initial state.
+    fn dump_all(&mut self, t: u64) -> io::Result<()> {
+        for k in 0..self.order.len() {
+            let i = self.order[k];
+            self.take(i, self.prev[i]);
+        }
+        self.write_batch(t).map(|_| ())
+    }
+
+    /// Compares `values` with the last sample (a pass of eight-value change masks), takes
+    /// them, and writes time `t` and the changed declared values (nothing when none
+    /// changed); cuts a section past [`FST_FLUSH_BYTES`].
+    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
+        let mut masks = std::mem::take(&mut self.masks);
+        change_masks(&self.prev, values, &mut masks);
+        self.prev.copy_from_slice(values);
+        for (b, &m) in masks.iter().enumerate() {
+            let mut m = m;
+            while m != 0 {
+                let i = 8 * b + m.trailing_zeros() as usize;
+                m &= m - 1;
+                self.take(i, values[i]);
+            }
+        }
+        self.masks = masks;
+        if self.write_batch(t)? && self.stamps.is_multiple_of(256) && self.size > FST_FLUSH_BYTES {
+            self.size = 0;
+            self.w.flush().map_err(fst_err)?;
+        }
+        Ok(())
+    }
+}
+
+impl ThreadBody for FstBody {
+    fn values(&self) -> usize {
+        self.prev.len()
+    }
+
+    fn sample(&mut self, win: Window, t: u64, values: &[u64]) -> Result<(), BodyError> {
+        self.take_sample(win, t, values).map_err(BodyError::Io)
+    }
+
+    /// Writes the last section and the header's totals.
+    fn end(self) -> io::Result<BodyEnd> {
+        let w = self.w.finish().map_err(fst_err)?;
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        Ok(BodyEnd {
+            file,
+            timestamps: self.stamps,
+        })
     }
 }

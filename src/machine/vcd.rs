@@ -25,9 +25,9 @@
 //! A scope filter (a glob with `*`/`?`, or else a substring, on the full dotted scope):
 //! signals outside it are not declared at all.
 //!
-//! **Output.** A VCD's samples go to the writer's own thread, which compares, formats and
-//! writes them in the order sent (`VcdStream`; the simulation thread only copies its value
-//! array); an FST is written on the simulation thread through a `BufWriter`. Either streams
+//! **Output.** The samples go to the waveform's own thread, which compares them and writes
+//! the changes in the order sent (`SampleStream`; the simulation thread only copies its value
+//! array): a VCD's lines (`VcdBody`), an FST's chains (`super::fst::FstBody`). Either streams
 //! into a temporary file beside the target, renamed into place by [`VcdWriter::finish`]
 //! (dropping an unfinished writer deletes it), so memory stays bounded on long runs and a
 //! failed run leaves no half-written file. The header holds no date, so the same run gives a
@@ -72,12 +72,6 @@ impl WaveFormat {
 /// Characters of an FST text signal (the longest FSM state, SHELL_START, has 11); a longer
 /// text keeps its last 16 characters.
 pub const FST_TEXT_CHARS: u32 = 16;
-
-/// The FST writer, in its two phases: header (scopes and variables), then value changes.
-enum Fst {
-    Header(FstHeaderWriter<BufWriter<File>>),
-    Body(FstBody),
-}
 
 /// A cycle window `[from, to]`, both ends inclusive.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -236,14 +230,14 @@ pub struct VcdSummary {
     pub bytes: u64,
 }
 
-/// The VCD body's thread, fed by the simulation thread: each sample goes over as its cycle
-/// and its value array, one record after another in large chunks; the thread compares every
-/// sample with the last, formats the changed values' lines and writes them to the file. The
-/// simulation thread only copies its value array, and the bytes are the same whatever the
-/// timing (the thread takes the samples in the order sent). Chunks go through a bounded
-/// channel (memory stays bounded) and come back empty to be reused (no allocation per sample,
-/// nor per chunk once a few circulate).
-struct VcdStream {
+/// The waveform body's thread, fed by the simulation thread: each sample goes over as its
+/// cycle and its value array, one record after another in large chunks; the thread compares
+/// every sample with the last and writes the changes (a [`ThreadBody`]: the VCD's lines or
+/// the FST's chains). The simulation thread only copies its value array, and the bytes are
+/// the same whatever the timing (the thread takes the samples in the order sent). Chunks go
+/// through a bounded channel (memory stays bounded) and come back empty to be reused (no
+/// allocation per sample, nor per chunk once a few circulate).
+struct SampleStream {
     tx: std::sync::mpsc::SyncSender<Vec<u64>>,
     back: std::sync::mpsc::Receiver<Vec<u64>>,
     /// Samples not yet sent: each its cycle, then its values.
@@ -258,28 +252,72 @@ struct VcdStream {
 /// Words of a sample chunk: 512 KiB, about 150 samples of the paper's machine.
 const CHUNK_WORDS: usize = 1 << 16;
 
-/// What the VCD body's thread ends with.
-struct BodyEnd {
-    file: File,
-    timestamps: u64,
+/// What a waveform body's thread ends with.
+pub(crate) struct BodyEnd {
+    pub(crate) file: File,
+    pub(crate) timestamps: u64,
 }
 
-/// Why the VCD body's thread stopped.
-enum BodyError {
+/// Why a waveform body's thread stopped.
+pub(crate) enum BodyError {
     Io(io::Error),
     /// The size limit passed (a usage error, exit status 2).
     Limit(String),
 }
 
-impl VcdStream {
-    /// Starts the thread on `body` (the header already in its buffer).
-    fn start(body: VcdBody) -> Self {
+/// A waveform body that takes the samples on the stream's thread.
+pub(crate) trait ThreadBody: Body + Send + 'static {
+    /// Values per sample.
+    fn values(&self) -> usize;
+    /// Before the first sample (the VCD writes its header).
+    fn begin(&mut self) -> io::Result<()> {
+        Ok(())
+    }
+    /// The sample at `t`, in the window `win`.
+    fn sample(&mut self, win: Window, t: u64, values: &[u64])
+        -> std::result::Result<(), BodyError>;
+    /// After the last sample: the file, written out, and the `#t` lines (time changes).
+    fn end(self) -> io::Result<BodyEnd>;
+}
+
+/// Takes the chunks until the channel closes, each sample in turn; every chunk goes back
+/// empty.
+fn run_body<B: ThreadBody>(
+    mut body: B,
+    win: Window,
+    rx: std::sync::mpsc::Receiver<Vec<u64>>,
+    back: std::sync::mpsc::Sender<Vec<u64>>,
+) -> std::result::Result<BodyEnd, BodyError> {
+    let stride = body.values() + 1;
+    body.begin().map_err(BodyError::Io)?;
+    let mut failed = None;
+    for mut chunk in rx {
+        if failed.is_none() {
+            for rec in chunk.chunks_exact(stride) {
+                if let Err(e) = body.sample(win, rec[0], &rec[1..]) {
+                    failed = Some(e);
+                    break;
+                }
+            }
+        }
+        chunk.clear();
+        // The writer may be gone (finished or dropped): nothing to hand back to.
+        let _ = back.send(chunk);
+    }
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    body.end().map_err(BodyError::Io)
+}
+
+impl SampleStream {
+    /// Starts the thread on `body`, which raises `over` when the run is to stop.
+    fn start<B: ThreadBody>(body: B, win: Window, over: Arc<AtomicBool>) -> Self {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u64>>(2);
         let (back_tx, back) = std::sync::mpsc::channel();
-        let chunk_words = CHUNK_WORDS.max(body.prev.len() + 1);
-        let over = body.over.clone();
-        let handle = std::thread::spawn(move || body.run(rx, back_tx));
-        VcdStream {
+        let chunk_words = CHUNK_WORDS.max(body.values() + 1);
+        let handle = std::thread::spawn(move || run_body(body, win, rx, back_tx));
+        SampleStream {
             tx,
             back,
             chunk: Vec::with_capacity(chunk_words),
@@ -318,14 +356,14 @@ impl VcdStream {
         drop(self.tx);
         self.handle
             .join()
-            .map_err(|_| BodyError::Io(io::Error::other("the VCD writer thread panicked")))?
+            .map_err(|_| BodyError::Io(io::Error::other("the waveform writer thread panicked")))?
     }
 }
 
 /// The cycle of the last sample (None before the first) and whether the window is open,
 /// and what a sample at `t` does with them.
 #[derive(Clone, Copy, Debug, Default)]
-struct Clock {
+pub(crate) struct Clock {
     t: Option<u64>,
     window_open: bool,
 }
@@ -376,9 +414,8 @@ impl Clock {
     }
 }
 
-/// A waveform's body taking samples: the FST's (on the simulation thread) and the VCD's (on
-/// its own thread).
-trait Body {
+/// A waveform's body taking samples (the VCD's and the FST's, each on its thread).
+pub(crate) trait Body {
     /// The window clock and the last sample's values.
     fn state(&mut self) -> (&mut Clock, &mut [u64]);
     /// Opens the window at `t`: `#t` and every declared value (those of the last sample).
@@ -417,7 +454,6 @@ struct VcdBody {
     prev: Vec<u64>,
     /// Per eight values, which of them changed (the compare's pass; reused).
     masks: Vec<u8>,
-    window: Window,
     clock: Clock,
     samples: u64,
     timestamps: u64,
@@ -439,46 +475,27 @@ struct VcdBody {
     over: Arc<AtomicBool>,
 }
 
-impl VcdBody {
-    /// Takes the chunks until the channel closes; every chunk goes back empty.
-    fn run(
-        mut self,
-        rx: std::sync::mpsc::Receiver<Vec<u64>>,
-        back: std::sync::mpsc::Sender<Vec<u64>>,
-    ) -> std::result::Result<BodyEnd, BodyError> {
-        let stride = self.prev.len() + 1;
+impl ThreadBody for VcdBody {
+    fn values(&self) -> usize {
+        self.prev.len()
+    }
+
+    fn begin(&mut self) -> io::Result<()> {
         let head = std::mem::take(&mut self.head);
-        self.file.write_all(&head).map_err(BodyError::Io)?;
+        self.file.write_all(&head)?;
         self.bytes_out = head.len() as u64;
-        let mut failed = None;
-        for mut chunk in rx {
-            if failed.is_none() {
-                for rec in chunk.chunks_exact(stride) {
-                    if let Err(e) = self.sample(rec[0], &rec[1..]) {
-                        failed = Some(e);
-                        break;
-                    }
-                }
-            }
-            chunk.clear();
-            // The writer may be gone (finished or dropped): nothing to hand back to.
-            let _ = back.send(chunk);
-        }
-        if let Some(e) = failed {
-            return Err(e);
-        }
-        self.flush().map_err(BodyError::Io)?;
-        Ok(BodyEnd {
-            file: self.file,
-            timestamps: self.timestamps,
-        })
+        Ok(())
     }
 
     /// One sample, as `VcdWriter::sample` describes; then the size limit, looked at every
     /// 1024 samples (bytes written plus those buffered).
-    fn sample(&mut self, t: u64, values: &[u64]) -> std::result::Result<(), BodyError> {
-        self.take_sample(self.window, t, values)
-            .map_err(BodyError::Io)?;
+    fn sample(
+        &mut self,
+        win: Window,
+        t: u64,
+        values: &[u64],
+    ) -> std::result::Result<(), BodyError> {
+        self.take_sample(win, t, values).map_err(BodyError::Io)?;
         self.samples += 1;
         if self.samples.is_multiple_of(1024) {
             let bytes = self.bytes_out + self.at as u64;
@@ -495,6 +512,16 @@ impl VcdBody {
         Ok(())
     }
 
+    fn end(mut self) -> io::Result<BodyEnd> {
+        self.flush()?;
+        Ok(BodyEnd {
+            file: self.file,
+            timestamps: self.timestamps,
+        })
+    }
+}
+
+impl VcdBody {
     /// Room for the next line (`margin` bytes at `at`), the bytes written out first once
     /// they are many.
     #[inline(always)]
@@ -560,24 +587,7 @@ impl Body for VcdBody {
     /// per value), then the lines of the changed ones.
     fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
         let mut masks = std::mem::take(&mut self.masks);
-        let mut p8 = self.prev.chunks_exact(8);
-        let mut v8 = values.chunks_exact(8);
-        let mut mk = masks.iter_mut();
-        for ((p, v), m) in (&mut p8).zip(&mut v8).zip(&mut mk) {
-            let p: &[u64; 8] = p.try_into().expect("8");
-            let v: &[u64; 8] = v.try_into().expect("8");
-            let mut x = 0u8;
-            for k in 0..8 {
-                x |= ((p[k] != v[k]) as u8) << k;
-            }
-            *m = x;
-        }
-        if let Some(m) = mk.next() {
-            let rest = p8.remainder().iter().zip(v8.remainder());
-            *m = rest
-                .enumerate()
-                .fold(0, |x, (k, (p, v))| x | ((p != v) as u8) << k);
-        }
+        change_masks(&self.prev, values, &mut masks);
         self.prev.copy_from_slice(values);
         let mut stamped = false;
         let mut r = Ok(());
@@ -601,6 +611,30 @@ impl Body for VcdBody {
         }
         self.masks = masks;
         r
+    }
+}
+
+/// The compare pass of a sample against the last, shared by the VCD's and the FST's bodies:
+/// `masks[b]` bit `k` set when value `8b + k` changed (no branch per value; `masks` holds
+/// one byte per eight values, the last for the remainder).
+pub(crate) fn change_masks(prev: &[u64], values: &[u64], masks: &mut [u8]) {
+    let mut p8 = prev.chunks_exact(8);
+    let mut v8 = values.chunks_exact(8);
+    let mut mk = masks.iter_mut();
+    for ((p, v), m) in (&mut p8).zip(&mut v8).zip(&mut mk) {
+        let p: &[u64; 8] = p.try_into().expect("8");
+        let v: &[u64; 8] = v.try_into().expect("8");
+        let mut x = 0u8;
+        for k in 0..8 {
+            x |= ((p[k] != v[k]) as u8) << k;
+        }
+        *m = x;
+    }
+    if let Some(m) = mk.next() {
+        let rest = p8.remainder().iter().zip(v8.remainder());
+        *m = rest
+            .enumerate()
+            .fold(0, |x, (k, (p, v))| x | ((p != v) as u8) << k);
     }
 }
 
@@ -631,9 +665,9 @@ struct Slot {
 /// `Machine::run` as the probe, then call [`VcdWriter::finish`].
 ///
 /// Each sample is one flat value array (position = signal id, fixed by the layout the probe
-/// declared once). A VCD's samples are queued to its thread (`VcdStream`, `VcdBody`), which
-/// compares each with the previous one and formats the changed values' lines by hand into a
-/// block written out whole; an FST's are compared and handed to `fst-writer` here.
+/// declared once). The samples are queued to the waveform's thread (`SampleStream`), which
+/// compares each with the previous one and writes the changes: a VCD's lines formatted by
+/// hand into a block written out whole (`VcdBody`), an FST's through `fst-writer` (`FstBody`).
 pub struct VcdWriter {
     path: PathBuf,
     /// The temporary file beside `path`; dropped unfinished, it is removed, so no
@@ -643,18 +677,16 @@ pub struct VcdWriter {
     out: Option<vcd::Writer<Vec<u8>>>,
     /// The VCD's file, until the header is written and its thread takes it.
     file: Option<File>,
-    /// The VCD body's thread (from the header on).
-    stream: Option<VcdStream>,
-    /// The FST writer instead of `out` when the path ends in `.fst`.
-    fst: Option<Fst>,
+    /// The waveform body's thread (from the header on).
+    stream: Option<SampleStream>,
+    /// The FST's header writer instead of `out` when the path ends in `.fst`.
+    fst: Option<FstHeaderWriter<BufWriter<File>>>,
     opts: VcdOptions,
     slots: Vec<Slot>,
     /// Signal order of the header (indices into `slots`).
     declared: Vec<usize>,
-    /// The last sample's values (those holding now; FST).
-    prev: Vec<u64>,
-    /// The last sample's cycle and the window (the FST's; the VCD's thread keeps its own).
-    clock: Clock,
+    /// The last sample's cycle (the thread keeps the values and the window).
+    last_t: Option<u64>,
     /// True once the layout is declared and the header written.
     header_done: bool,
     samples: u64,
@@ -693,7 +725,7 @@ impl VcdWriter {
                 };
                 let h = FstHeaderWriter::new(buf, &info)
                     .map_err(|e| Error::io(tmp.tmp_path(), io::Error::other(e.to_string())))?;
-                (None, Some(Fst::Header(h)), None)
+                (None, Some(h), None)
             }
         };
         Ok(VcdWriter {
@@ -706,8 +738,7 @@ impl VcdWriter {
             opts,
             slots: Vec::new(),
             declared: Vec::new(),
-            prev: Vec::new(),
-            clock: Clock::default(),
+            last_t: None,
             header_done: false,
             samples: 0,
             timestamps: 0,
@@ -726,11 +757,11 @@ impl VcdWriter {
                 self.fail(format!("writing: {e}"));
             }
         }
-        // The VCD's thread saw every sample sent before any error found here, so its error
-        // comes first.
-        let mut vcd_end = None;
-        match self.stream.take().map(VcdStream::finish) {
-            Some(Ok(end)) => vcd_end = Some(end),
+        // The thread saw every sample sent before any error found here, so its error comes
+        // first.
+        let mut body_end = None;
+        match self.stream.take().map(SampleStream::finish) {
+            Some(Ok(end)) => body_end = Some(end),
             Some(Err(BodyError::Limit(m))) => self.usage = Some(m),
             Some(Err(BodyError::Io(e))) => self.error = Some(format!("writing: {e}")),
             None => {}
@@ -743,15 +774,10 @@ impl VcdWriter {
             // Dropping `self` removes the temporary file.
             return Err(Error::Check(format!("{}: {e}", self.path.display())));
         }
-        let done = match (vcd_end, self.fst.take()) {
-            (Some(end), _) => (|| -> io::Result<u64> {
-                self.timestamps = end.timestamps;
-                crate::output::sync_file(&end.file)?;
-                end.file.metadata().map(|m| m.len())
-            })(),
-            (None, Some(Fst::Body(b))) => b.finish(),
-            _ => unreachable!("finish runs once, after the header"),
-        };
+        let end = body_end.expect("finish runs once, after the header");
+        self.timestamps = end.timestamps;
+        let done = crate::output::sync_file(&end.file).and_then(|()| end.file.metadata());
+        let done = done.map(|m| m.len());
         let tmp = self.tmp.take().expect("finish runs once");
         let bytes = done.map_err(|e| Error::io(tmp.tmp_path(), e))?;
         tmp.persist()?;
@@ -813,23 +839,23 @@ impl VcdWriter {
             }
             node.vars.push(i);
         }
-        if let Some(Fst::Header(_)) = &self.fst {
-            let Some(Fst::Header(mut h)) = self.fst.take() else {
-                unreachable!()
-            };
+        let over = Arc::new(AtomicBool::new(false));
+        if let Some(mut h) = self.fst.take() {
             let mut order = Vec::new();
             declare_fst(&mut h, &root, &mut self.slots, &mut order).map_err(fst_err)?;
             let b = h.finish().map_err(fst_err)?;
             let handles = self.slots.iter().map(|s| FstHandle {
                 id: s.fst_id,
                 text: s.kind == SignalKind::Text,
+                width: fst_width(s),
             });
             let handles = handles.collect();
             let texts = self
                 .slots
                 .iter_mut()
                 .map(|s| std::mem::take(&mut s.text_lines));
-            self.fst = Some(Fst::Body(FstBody::new(b, handles, texts.collect())?));
+            let body = FstBody::new(b, handles, texts.collect(), order.clone())?;
+            self.stream = Some(SampleStream::start(body, self.opts.window, over));
             self.declared = order;
             return Ok(());
         }
@@ -856,12 +882,11 @@ impl VcdWriter {
             .iter()
             .flat_map(|s| s.text_lines.iter().map(Vec::len))
             .fold(LINE, usize::max);
-        self.stream = Some(VcdStream::start(VcdBody {
+        let body = VcdBody {
             slots: self.slots.clone(),
             declared: order.clone(),
             prev: vec![0; self.slots.len()],
             masks: vec![0; self.slots.len().div_ceil(8)],
-            window: self.opts.window,
             clock: Clock::default(),
             samples: 0,
             timestamps: 0,
@@ -873,35 +898,10 @@ impl VcdWriter {
             bytes_out: 0,
             limit: self.limit,
             path: self.path.clone(),
-            over: Arc::new(AtomicBool::new(false)),
-        }));
+            over: over.clone(),
+        };
+        self.stream = Some(SampleStream::start(body, self.opts.window, over));
         self.declared = order;
-        Ok(())
-    }
-}
-
-/// The FST's body (the VCD's is its thread's, `VcdBody`).
-impl Body for VcdWriter {
-    fn state(&mut self) -> (&mut Clock, &mut [u64]) {
-        (&mut self.clock, &mut self.prev)
-    }
-
-    /// FST has no `$dumpvars`: the first time's values are the initial state.
-    fn dump_all(&mut self, t: u64) -> io::Result<()> {
-        self.timestamps += 1;
-        let Some(Fst::Body(b)) = &mut self.fst else {
-            unreachable!("the VCD's body is its thread's")
-        };
-        b.dump_all(t, &self.declared, &self.prev)
-    }
-
-    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
-        let Some(Fst::Body(b)) = &mut self.fst else {
-            unreachable!("the VCD's body is its thread's")
-        };
-        if b.write_changes(t, &mut self.prev, values)? {
-            self.timestamps += 1;
-        }
         Ok(())
     }
 }
@@ -954,7 +954,6 @@ impl Probe for VcdWriter {
                 }
             })
             .collect();
-        self.prev = vec![0; self.slots.len()];
         if let Err(e) = self.write_header() {
             self.fail(format!("writing: {e}"));
         }
@@ -977,23 +976,20 @@ impl Probe for VcdWriter {
             self.fail(msg);
             return;
         }
-        if let Some(s) = &mut self.stream {
-            // The VCD: its thread compares and writes (`VcdBody`).
-            if let Some(prev) = self.clock.t.filter(|&p| t <= p) {
-                self.fail(format!(
-                    "writing: cycle {t} after cycle {prev}: time must increase"
-                ));
-                return;
-            }
-            self.clock.t = Some(t);
-            self.samples += 1;
-            s.push(t, values);
+        let Some(s) = &mut self.stream else {
+            // The header failed (an error recorded above).
+            return;
+        };
+        // The thread compares and writes (`VcdBody`, `FstBody`).
+        if let Some(prev) = self.last_t.filter(|&p| t <= p) {
+            self.fail(format!(
+                "writing: cycle {t} after cycle {prev}: time must increase"
+            ));
             return;
         }
-        match self.take_sample(self.opts.window, t, values) {
-            Ok(()) => self.samples += 1,
-            Err(e) => self.fail(format!("writing: {e}")),
-        }
+        self.last_t = Some(t);
+        self.samples += 1;
+        s.push(t, values);
     }
 
     fn stop(&self) -> bool {
@@ -1105,13 +1101,9 @@ fn declare_fst<W: Write + io::Seek>(
         h.scope(&c.name, "", FstScopeType::Module)?;
         for &i in &c.vars {
             let s = &mut slots[i];
-            let width = match s.kind {
-                SignalKind::Text => 8 * FST_TEXT_CHARS,
-                _ => s.width,
-            };
             let id = h.var(
                 &s.name,
-                FstSignalType::bit_vec(width),
+                FstSignalType::bit_vec(fst_width(s)),
                 FstVarType::Wire,
                 FstVarDirection::Implicit,
                 None,
@@ -1126,6 +1118,14 @@ fn declare_fst<W: Write + io::Seek>(
         h.up_scope()?;
     }
     Ok(())
+}
+
+/// A signal's width in the FST: a text's is [`FST_TEXT_CHARS`] ASCII characters.
+fn fst_width(s: &Slot) -> u32 {
+    match s.kind {
+        SignalKind::Text => 8 * FST_TEXT_CHARS,
+        _ => s.width,
+    }
 }
 
 /// A text as FST writes it: [`FST_TEXT_CHARS`] ASCII characters, right-aligned and

@@ -10,7 +10,8 @@
 // its section to a writer thread (see `writer.rs`).
 
 use crate::io::{
-    FstCompression, Section, write_multi_bit_signal, write_one_bit_signal, write_time_chain_update,
+    FstCompression, Section, is_digital, write_multi_bit_signal, write_one_bit_signal,
+    write_time_chain_update, write_variant_u64,
 };
 use crate::{FstSignalId, FstSignalType, FstWriteError, Result};
 use std::borrow::Cow;
@@ -246,6 +247,33 @@ impl SignalBuffer {
             }
             self.chain_bytes += self.write_buf.len();
             self.chains[index].extend_from_slice(&self.write_buf);
+        }
+        Ok(())
+    }
+
+    /// A change of a '0'/'1' bit vector given both as its ASCII (`ascii`, the signal's
+    /// length) and packed (`packed`: the same bits eight a byte, MSB first, the last byte
+    /// padded with zeros): the change [`Self::signal_change`] writes, without packing it.
+    pub(crate) fn signal_change_packed(
+        &mut self,
+        signal_id: FstSignalId,
+        ascii: &[u8],
+        packed: &[u8],
+    ) -> Result<()> {
+        let index = signal_id.to_array_index();
+        match self.signals.get(index) {
+            Some(s) if s.len as usize == ascii.len() && !s.real && s.len > 1 => {}
+            _ => return Err(FstWriteError::InvalidSignalId(signal_id)),
+        }
+        if packed.len() != ascii.len().div_ceil(8) || !is_digital(ascii) {
+            return Err(FstWriteError::NotPacked(signal_id));
+        }
+        if let Some(delta) = self.take_value(index, ascii) {
+            let chain = &mut self.chains[index];
+            let start = chain.len();
+            write_variant_u64(chain, delta << 1)?;
+            chain.extend_from_slice(packed);
+            self.chain_bytes += chain.len() - start;
         }
         Ok(())
     }
@@ -554,7 +582,70 @@ mod tests {
         ));
     }
 
+    /// A change given packed is encoded exactly as the same change in ASCII (widths 2..=160,
+    /// repeated values deduplicated alike).
+    fn do_test_packed_as_ascii(widths: &[u8], changes: &[(usize, u64, bool)]) {
+        let lens: Vec<u32> = widths.iter().map(|w| (*w % 159) as u32 + 2).collect();
+        let mut ascii = buffer_with_signals(&lens);
+        let mut packed = buffer_with_signals(&lens);
+        for (step, (signal, value, next_time)) in changes.iter().enumerate() {
+            if *next_time || step == 1 {
+                ascii.time_change(step as u64 + 1).unwrap();
+                packed.time_change(step as u64 + 1).unwrap();
+            }
+            let index = signal % lens.len();
+            let len = lens[index] as usize;
+            let id = FstSignalId::from_index(index as u32 + 1);
+            // few distinct values, so repeats happen
+            let v = value % 5;
+            let text: Vec<u8> = (0..len)
+                .map(|k| b'0' + ((v.rotate_left(k as u32 * 7) ^ k as u64) & 1) as u8)
+                .collect();
+            let bytes: Vec<u8> = text
+                .chunks(8)
+                .map(|c| {
+                    c.iter()
+                        .enumerate()
+                        .fold(0, |b, (k, &x)| b | (x - b'0') << (7 - k))
+                })
+                .collect();
+            ascii.signal_change(id, &text).unwrap();
+            packed.signal_change_packed(id, &text, &bytes).unwrap();
+        }
+        assert_eq!(ascii.values, packed.values);
+        assert_eq!(ascii.chains, packed.chains);
+        assert_eq!(ascii.chain_bytes, packed.chain_bytes);
+    }
+
+    /// A packed change needs its packed bytes to fit its '0'/'1' value.
+    #[test]
+    fn test_signal_change_packed_checks_its_value() {
+        let mut buffer = buffer_with_signals(&[16, 1]);
+        let id = FstSignalId::from_index(1);
+        buffer
+            .signal_change_packed(id, &[b'1'; 16], &[0xff, 0xff])
+            .unwrap();
+        for (ascii, packed) in [(&[b'1'; 16], &[0xffu8][..]), (&[b'x'; 16], &[0, 0][..])] {
+            assert!(matches!(
+                buffer.signal_change_packed(id, ascii, packed),
+                Err(FstWriteError::NotPacked(_))
+            ));
+        }
+        assert!(matches!(
+            buffer.signal_change_packed(FstSignalId::from_index(2), b"1", &[0x80]),
+            Err(FstWriteError::InvalidSignalId(_))
+        ));
+    }
+
     proptest! {
+        #[test]
+        fn test_packed_as_ascii(
+            widths in prop::collection::vec(any::<u8>(), 1..8),
+            changes in prop::collection::vec((any::<usize>(), any::<u64>(), any::<bool>()), 0..200),
+        ) {
+            do_test_packed_as_ascii(&widths, &changes);
+        }
+
         #[test]
         fn test_u64_as_ascii(
             widths in prop::collection::vec(any::<u8>(), 1..12),

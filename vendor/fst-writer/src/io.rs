@@ -350,8 +350,9 @@ pub(crate) fn write_multi_bit_signal(
 }
 
 #[inline]
-fn is_digital(values: &[u8]) -> bool {
-    values.iter().all(|v| matches!(*v, b'0' | b'1'))
+pub(crate) fn is_digital(values: &[u8]) -> bool {
+    // every byte '0' or '1' (0x30, 0x31): no early exit, so the loop is vectorized
+    values.iter().fold(true, |ok, &v| ok & (v & !1 == b'0'))
 }
 
 #[inline]
@@ -390,6 +391,19 @@ pub enum FstCompression {
     Lz4,
     /// zlib chains and frame at this level (0-9; GTKWave's own writer uses 4).
     Zlib(u8),
+    /// zlib chains and frame (pack type 'Z', as [`Zlib`](Self::Zlib)) made by libdeflate at
+    /// this level (1-12): whole-buffer compression, no stream state to reset per chain.
+    Deflate(u8),
+}
+
+impl FstCompression {
+    /// The value change pack type.
+    fn pack_type(self) -> u8 {
+        match self {
+            FstCompression::Lz4 => VALUE_CHANGE_PACK_TYPE_LZ4,
+            FstCompression::Zlib(_) | FstCompression::Deflate(_) => VALUE_CHANGE_PACK_TYPE_ZLIB,
+        }
+    }
 }
 
 /// One value change section's data, taken out of the signal buffer at a flush.
@@ -429,6 +443,7 @@ pub(crate) struct SectionScratch {
     compressed_len: usize,
     signal_offsets: Vec<u8>,
     zlib: Option<(u8, flate2::Compress)>,
+    deflate: Option<(u8, libdeflater::Compressor)>,
 }
 
 impl SectionScratch {
@@ -438,6 +453,40 @@ impl SectionScratch {
             compressed_len: 0,
             signal_offsets: vec![],
             zlib: None,
+            deflate: None,
+        }
+    }
+
+    /// Compresses `data` at `c` (zlib or libdeflate) into `self.compressed`, when that makes
+    /// it smaller (returns false when not).
+    fn zlib_with(&mut self, data: &[u8], c: FstCompression) -> Result<bool> {
+        match c {
+            FstCompression::Zlib(level) => self.zlib(data, level),
+            FstCompression::Deflate(level) => Ok(self.deflate(data, level)),
+            FstCompression::Lz4 => Ok(false),
+        }
+    }
+
+    /// [`zlib`](Self::zlib) through libdeflate at `level`.
+    fn deflate(&mut self, data: &[u8], level: u8) -> bool {
+        let z = match &mut self.deflate {
+            Some((l, z)) if *l == level => z,
+            slot => {
+                let lvl = libdeflater::CompressionLvl::new(level as i32)
+                    .unwrap_or(libdeflater::CompressionLvl::fastest());
+                &mut slot.insert((level, libdeflater::Compressor::new(lvl))).1
+            }
+        };
+        if self.compressed.len() < data.len() {
+            self.compressed.resize(data.len(), 0);
+        }
+        // an output that does not fit in as many bytes as the input is no smaller
+        match z.zlib_compress(data, &mut self.compressed[..data.len()]) {
+            Ok(n) if n < data.len() => {
+                self.compressed_len = n;
+                true
+            }
+            _ => false,
         }
     }
 
@@ -501,11 +550,7 @@ fn write_value_changes(
 ) -> Result<()> {
     let num_signals = section.chains.len();
     write_variant_u64(output, num_signals as u64)?;
-    let pack_type = match section.compression {
-        FstCompression::Lz4 => VALUE_CHANGE_PACK_TYPE_LZ4,
-        FstCompression::Zlib(_) => VALUE_CHANGE_PACK_TYPE_ZLIB,
-    };
-    write_u8(output, pack_type)?;
+    write_u8(output, section.compression.pack_type())?;
 
     let mut zero_count = 0;
     let mut prev_offset = output.stream_position()? - 1;
@@ -524,6 +569,7 @@ fn write_value_changes(
             let min = match section.compression {
                 FstCompression::Lz4 => MIN_SIZE_TO_ATTEMPT_COMPRESSION,
                 FstCompression::Zlib(_) => MIN_SIZE_TO_ATTEMPT_ZLIB,
+                FstCompression::Deflate(_) => MIN_SIZE_TO_ATTEMPT_COMPRESSION,
             };
             let compressed = if data.len() < min {
                 // it is better not to compress the data
@@ -537,7 +583,7 @@ fn write_value_changes(
                         scratch.compressed_len = scratch.compressed.len();
                         scratch.compressed_len < data.len()
                     }
-                    FstCompression::Zlib(level) => scratch.zlib(data, level)?,
+                    c => scratch.zlib_with(data, c)?,
                 };
                 Some(&scratch.compressed[..scratch.compressed_len]).filter(|_| smaller)
             };
@@ -574,14 +620,13 @@ fn write_frame(
     let frame = &section.frame[..];
     let num_signals = section.chains.len();
     write_variant_u64(output, frame.len() as u64)?;
-    if let FstCompression::Zlib(level) = section.compression {
-        if scratch.zlib(frame, level)? {
-            let c = &scratch.compressed[..scratch.compressed_len];
-            write_variant_u64(output, c.len() as u64)?;
-            write_variant_u64(output, num_signals as u64)?;
-            output.write_all(c)?;
-            return Ok(());
-        }
+    // (LZ4 gives false: it keeps the frame uncompressed)
+    if scratch.zlib_with(frame, section.compression)? {
+        let c = &scratch.compressed[..scratch.compressed_len];
+        write_variant_u64(output, c.len() as u64)?;
+        write_variant_u64(output, num_signals as u64)?;
+        output.write_all(c)?;
+        return Ok(());
     }
     // LZ4 keeps the frame uncompressed (the format compresses frames with zlib only)
     write_variant_u64(output, frame.len() as u64)?;

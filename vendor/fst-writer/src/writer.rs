@@ -116,9 +116,10 @@ impl<W: std::io::Write + std::io::Seek> FstHeaderWriter<W> {
         let next = FstBodyWriter {
             sink: Sink::Direct(Box::new(Direct {
                 buffer,
-                out: self.out,
+                out: Some(self.out),
                 scratch: SectionScratch::new(),
                 spare: Section::empty(),
+                compressor: None,
             })),
             signals,
             finish_info,
@@ -149,9 +150,21 @@ enum Sink<W> {
 /// The signal buffer and the file, on the calling thread.
 struct Direct<W> {
     buffer: SignalBuffer,
-    out: W,
+    /// the file (None once the compressor thread owns it)
+    out: Option<W>,
     scratch: SectionScratch,
     spare: Section,
+    /// Once `compress_in_background` ran: the thread that compresses and writes the
+    /// sections.
+    compressor: Option<Compressor<W>>,
+}
+
+/// A thread that compresses and writes the sections handed to it, in order, and hands
+/// each back emptied for reuse.
+struct Compressor<W> {
+    to: std::sync::mpsc::SyncSender<Section>,
+    back: std::sync::mpsc::Receiver<Section>,
+    handle: std::thread::JoinHandle<Result<W>>,
 }
 
 /// One recorded call (8 bytes): `tag` is [`TAG_TIME`] (value: the time), [`TAG_FLUSH`]
@@ -252,12 +265,14 @@ fn compression_code(c: FstCompression) -> u64 {
     match c {
         FstCompression::Lz4 => u32::MAX as u64,
         FstCompression::Zlib(level) => level as u64,
+        FstCompression::Deflate(level) => 0x100 | level as u64,
     }
 }
 
 fn compression_of(code: u64) -> FstCompression {
     match code {
         0xffff_ffff => FstCompression::Lz4,
+        code if code & 0x100 != 0 => FstCompression::Deflate(code as u8),
         level => FstCompression::Zlib(level as u8),
     }
 }
@@ -295,6 +310,23 @@ impl<W: std::io::Write + std::io::Seek> FstBodyWriter<W> {
                 r.size += 1 + len.div_ceil(8);
                 r.push(signal_id.to_index() | TAG_ASCII, offset)
             }
+            Sink::Gone => unreachable!("the sink is always set between calls"),
+        }
+    }
+
+    /// A change of a '0'/'1' bit vector signal (wider than one bit) given both as ASCII
+    /// (`ascii`, the signal's length) and packed (`packed`: the same bits eight a byte, MSB
+    /// first, the last byte padded with zeros): the change [`signal_change`](Self::signal_change)
+    /// writes for `ascii`, without packing it again (for values written many times).
+    pub fn signal_change_packed(
+        &mut self,
+        signal_id: FstSignalId,
+        ascii: &[u8],
+        packed: &[u8],
+    ) -> Result<()> {
+        match &mut self.sink {
+            Sink::Direct(d) => d.buffer.signal_change_packed(signal_id, ascii, packed),
+            Sink::Thread(_) => self.signal_change(signal_id, ascii),
             Sink::Gone => unreachable!("the sink is always set between calls"),
         }
     }
@@ -385,12 +417,26 @@ impl<W: std::io::Write + std::io::Seek> FstBodyWriter<W> {
 
     fn flush_section(&mut self) -> Result<()> {
         match &mut self.sink {
-            Sink::Direct(d) => {
-                let empty = std::mem::replace(&mut d.spare, Section::empty());
-                let section = d.buffer.take_section(self.compression, empty);
-                write_value_change_section(&mut d.out, &section, &mut d.scratch)?;
-                d.spare = section;
-            }
+            Sink::Direct(d) => match &d.compressor {
+                None => {
+                    let empty = std::mem::replace(&mut d.spare, Section::empty());
+                    let section = d.buffer.take_section(self.compression, empty);
+                    let out = d
+                        .out
+                        .as_mut()
+                        .expect("the file is here without a compressor");
+                    write_value_change_section(out, &section, &mut d.scratch)?;
+                    d.spare = section;
+                }
+                Some(c) => {
+                    // a section the thread is done with, else a new one
+                    let empty = c.back.try_recv().unwrap_or_else(|_| Section::empty());
+                    let section = d.buffer.take_section(self.compression, empty);
+                    // the thread stopped on an error: `finish` reports it
+                    c.to.send(section)
+                        .map_err(|_| FstWriteError::WriterThread)?;
+                }
+            },
             Sink::Thread(r) => {
                 r.size = 0;
                 r.push(TAG_FLUSH, compression_code(self.compression))?;
@@ -415,9 +461,16 @@ impl<W: std::io::Write + std::io::Seek> FstBodyWriter<W> {
         let flushed = self.flush_section();
         let (mut out, end_time) = match std::mem::replace(&mut self.sink, Sink::Gone) {
             Sink::Direct(d) => {
-                flushed?;
                 let end_time = d.buffer.end_time();
-                (d.out, end_time)
+                let out = match d.compressor {
+                    None => d.out.expect("the file is here without a compressor"),
+                    Some(Compressor { to, handle, .. }) => {
+                        drop(to);
+                        handle.join().map_err(|_| FstWriteError::WriterThread)??
+                    }
+                };
+                flushed?;
+                (out, end_time)
             }
             Sink::Thread(r) => {
                 let Recorder { to, handle, .. } = *r;
@@ -439,21 +492,61 @@ impl<W: std::io::Write + std::io::Seek> FstBodyWriter<W> {
 }
 
 impl<W: std::io::Write + std::io::Seek + Send + 'static> FstBodyWriter<W> {
+    /// From now on, each section is compressed and written by a thread of its own while the
+    /// caller goes on filling the next one (at most one more waits in between): the calls
+    /// themselves stay on the calling thread. The file's bytes are the same as without the
+    /// thread. An error found by the thread is reported by a later flush or by
+    /// [`finish`](Self::finish). Without effect after [`write_in_background`](Self::write_in_background).
+    pub fn compress_in_background(&mut self) -> Result<()> {
+        let Sink::Direct(d) = &mut self.sink else {
+            return Ok(());
+        };
+        if d.compressor.is_some() {
+            return Ok(());
+        }
+        let Some(mut out) = d.out.take() else {
+            return Ok(());
+        };
+        let (to, from) = std::sync::mpsc::sync_channel::<Section>(1);
+        let (give_back, back) = std::sync::mpsc::channel::<Section>();
+        let mut scratch = std::mem::replace(&mut d.scratch, SectionScratch::new());
+        let handle = std::thread::Builder::new()
+            .name("fst-compress".into())
+            .spawn(move || -> Result<W> {
+                for section in from {
+                    write_value_change_section(&mut out, &section, &mut scratch)?;
+                    // the caller takes it back for a later section (or makes a new one)
+                    let _ = give_back.send(section);
+                }
+                Ok(out)
+            })?;
+        d.compressor = Some(Compressor { to, back, handle });
+        Ok(())
+    }
+
     /// From now on, records the calls (8 bytes each, in blocks) for a thread of its own
     /// that replays them in order into the signal buffer, compresses and writes the sections,
-    /// while the caller goes on (at most two blocks wait in between). The file's bytes are
+    /// while the caller goes on (at most two blocks wait in between); without effect after
+    /// [`compress_in_background`](Self::compress_in_background). The file's bytes are
     /// the same as without the thread. An error found by the thread (I/O, an invalid
     /// character) is reported by a later call or by [`finish`](Self::finish).
     pub fn write_in_background(&mut self) -> Result<()> {
         let Sink::Direct(d) = std::mem::replace(&mut self.sink, Sink::Gone) else {
             return Ok(());
         };
+        if d.compressor.is_some() {
+            // sections already go to a compressor thread: nothing changes
+            self.sink = Sink::Direct(d);
+            return Ok(());
+        }
         let Direct {
             mut buffer,
-            mut out,
+            out,
             mut scratch,
             mut spare,
+            ..
         } = *d;
+        let mut out = out.expect("the file is here without a compressor");
         let (to, from) = std::sync::mpsc::sync_channel::<Block>(2);
         let (give_back, back) = std::sync::mpsc::sync_channel::<Block>(4);
         let size = buffer.size();
@@ -520,13 +613,14 @@ mod tests {
 
     /// An FST in memory of signals of widths `lens` (each below 64 bits, or a text of 128
     /// characters when 0), written from `changes` (signal, value, next time?), flushed every
-    /// `flush_every` changes; through the writer thread when `background`.
+    /// `flush_every` changes; through the writer thread when `background` is 1, the
+    /// compressor thread when 2.
     fn write(
         lens: &[u32],
         changes: &[(usize, u64, bool)],
         flush_every: usize,
         compression: FstCompression,
-        background: bool,
+        background: u8,
     ) -> Vec<u8> {
         let info = FstInfo {
             start_time: 0,
@@ -555,8 +649,10 @@ mod tests {
         h.up_scope().unwrap();
         let mut b = h.finish().unwrap();
         b.set_compression(compression);
-        if background {
-            b.write_in_background().unwrap();
+        match background {
+            1 => b.write_in_background().unwrap(),
+            2 => b.compress_in_background().unwrap(),
+            _ => {}
         }
         let mut t = 0;
         for (n, &(signal, value, next)) in changes.iter().enumerate() {
@@ -584,7 +680,8 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
-        /// The writer thread writes the same bytes as the calling thread, over many sections.
+        /// The writer thread and the compressor thread write the same bytes as the calling
+        /// thread, over many sections (LZ4, zlib and libdeflate).
         #[test]
         fn test_background_writes_the_same_bytes(
             lens in prop::collection::vec(0u32..64, 1..10),
@@ -593,12 +690,18 @@ mod tests {
                 0..3000,
             ),
             flush_every in 1usize..500,
-            zlib in any::<bool>(),
+            pack in 0u8..3,
         ) {
-            let c = if zlib { FstCompression::Zlib(1) } else { FstCompression::Lz4 };
-            let direct = write(&lens, &changes, flush_every, c, false);
-            let thread = write(&lens, &changes, flush_every, c, true);
-            prop_assert_eq!(direct, thread);
+            let c = match pack {
+                0 => FstCompression::Lz4,
+                1 => FstCompression::Zlib(1),
+                _ => FstCompression::Deflate(1),
+            };
+            let direct = write(&lens, &changes, flush_every, c, 0);
+            let thread = write(&lens, &changes, flush_every, c, 1);
+            prop_assert_eq!(&direct, &thread);
+            let compressor = write(&lens, &changes, flush_every, c, 2);
+            prop_assert_eq!(&direct, &compressor);
         }
     }
 }
