@@ -148,7 +148,7 @@ impl Memory {
     }
 
     /// A cycle with the port busy, a record on its way or a request waiting.
-    #[inline(never)]
+    #[inline(always)]
     fn tick_active(
         &mut self,
         now: u64,
