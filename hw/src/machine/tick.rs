@@ -12,6 +12,7 @@ use crate::units::ctu::Ctu;
 use crate::units::ctu::CtuPorts;
 use crate::units::icu::IcuPorts;
 use crate::units::ray_buffer::BundlePorts;
+use crate::units::ray_pool::RayList;
 use std::ops::Range;
 
 impl Machine<'_> {
@@ -85,15 +86,7 @@ impl Machine<'_> {
                 if ctu.idle_tick(now, &l.results[i], &l.remote_in[i], &l.arrivals[i]) {
                     continue;
                 }
-                let mut io = CtuPorts {
-                    requests: &mut l.requests[i],
-                    arrivals: &mut l.arrivals[i],
-                    jobs: &mut l.jobs[i],
-                    results: &mut l.results[i],
-                    remote_results: &mut l.remote_in[i],
-                    descs: &mut l.descs[i],
-                    pool: &mut self.pool[i],
-                };
+                let mut io = ctu_ports(l, &mut self.pool, i);
                 ctu.tick_active(now, &mut io, &scene.cells);
             }
             if bundle {
@@ -157,15 +150,7 @@ impl Machine<'_> {
             }
             UnitId::Ctu(c, j) => {
                 let i = c * k + j;
-                let mut io = CtuPorts {
-                    requests: &mut l.requests[i],
-                    arrivals: &mut l.arrivals[i],
-                    jobs: &mut l.jobs[i],
-                    results: &mut l.results[i],
-                    remote_results: &mut l.remote_in[i],
-                    descs: &mut l.descs[i],
-                    pool: &mut self.pool[i],
-                };
+                let mut io = ctu_ports(l, &mut self.pool, i);
                 self.clusters[c].ctus[j].tick(now, &mut io, &self.scene.cells);
             }
             UnitId::RayBuffer(c) if self.cfg.machine.job_source == JobSource::Bundle => {
@@ -221,6 +206,20 @@ impl Machine<'_> {
             }
         }
         a
+    }
+}
+
+/// CTU `i`'s ports (per-CTU families are cluster-major: `i = c·k + j`).
+#[inline(always)]
+fn ctu_ports<'a>(l: &'a mut Links, pool: &'a mut [RayList], i: usize) -> CtuPorts<'a> {
+    CtuPorts {
+        requests: &mut l.requests[i],
+        arrivals: &mut l.arrivals[i],
+        jobs: &mut l.jobs[i],
+        results: &mut l.results[i],
+        remote_results: &mut l.remote_in[i],
+        descs: &mut l.descs[i],
+        pool: &mut pool[i],
     }
 }
 

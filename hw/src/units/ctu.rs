@@ -880,45 +880,30 @@ mod tests {
     fn run(p: CtuParams) -> Walk {
         let (cells, rays) = scene();
         let mut ctu = Ctu::new(p, &[0, 1], &rays, &cells, 3);
-        let me = UnitId::Ctu(0, 0);
-        let mut requests = Link::new(1).wired(me, UnitId::Memory);
-        let mut arrivals = Link::new(2).wired(UnitId::PatchBuffer(0), me);
-        let mut jobs = Link::new(2).wired(me, UnitId::RayBuffer(0));
-        let mut results = Link::new(2).wired(UnitId::Icu(0), me);
-        let mut remote = Link::new(2).wired(UnitId::Balancer, me);
-        let mut descs = Link::new(2).wired(me, UnitId::RayBuffer(0));
-        let mut pool = RayList::new(&[0, 1]);
+        let mut w = Wires::new();
         let (mut states, mut asked, mut issued) = (vec![], vec![], vec![]);
         let mut in_memory: Vec<(u64, u32)> = vec![];
         for now in 0..500u64 {
-            let mut io = CtuPorts {
-                requests: &mut requests,
-                arrivals: &mut arrivals,
-                jobs: &mut jobs,
-                results: &mut results,
-                remote_results: &mut remote,
-                descs: &mut descs,
-                pool: &mut pool,
-            };
-            ctu.tick(now, &mut io, &cells);
+            ctu.tick(now, &mut w.ports(), &cells);
             if states.last() != Some(&ctu.state.name()) {
                 states.push(ctu.state.name());
             }
-            if now >= 12 && requests.peek().is_some() {
-                let r = requests.pop(UnitId::Memory);
+            if now >= 12 && w.requests.peek().is_some() {
+                let r = w.requests.pop(UnitId::Memory);
                 asked.push(r.patch);
                 in_memory.push((now + 5, r.patch));
             }
             if let Some(&(at, patch)) = in_memory.first() {
-                if at <= now && arrivals.can_push() {
-                    arrivals.push(UnitId::PatchBuffer(0), PatchArrival { patch, ctu: 0 });
+                if at <= now && w.arrivals.can_push() {
+                    w.arrivals
+                        .push(UnitId::PatchBuffer(0), PatchArrival { patch, ctu: 0 });
                     in_memory.remove(0);
                 }
             }
-            if jobs.peek().is_some() && results.can_push() {
-                let j = jobs.pop(UnitId::RayBuffer(0));
+            if w.jobs.peek().is_some() && w.results.can_push() {
+                let j = w.jobs.pop(UnitId::RayBuffer(0));
                 issued.push((j.ray, j.patch));
-                results.push(
+                w.results.push(
                     UnitId::Icu(0),
                     JobResult {
                         slot: j.slot,
@@ -928,11 +913,11 @@ mod tests {
                 );
             }
             for l in [
-                &mut requests as &mut dyn Commit,
-                &mut arrivals,
-                &mut jobs,
-                &mut results,
-                &mut remote,
+                &mut w.requests as &mut dyn Commit,
+                &mut w.arrivals,
+                &mut w.jobs,
+                &mut w.results,
+                &mut w.remote,
             ] {
                 l.commit();
             }
@@ -941,6 +926,44 @@ mod tests {
             }
         }
         (ctu, states, asked, issued)
+    }
+
+    /// A CTU's links, wired to CTU (0, 0), and its ray pool: what the machine hands it.
+    struct Wires {
+        requests: Link<MemRequest>,
+        arrivals: Link<PatchArrival>,
+        jobs: Link<Job>,
+        results: Link<JobResult>,
+        remote: Link<JobResult>,
+        descs: Link<Descriptor>,
+        pool: RayList,
+    }
+
+    impl Wires {
+        fn new() -> Self {
+            let me = UnitId::Ctu(0, 0);
+            Wires {
+                requests: Link::new(1).wired(me, UnitId::Memory),
+                arrivals: Link::new(2).wired(UnitId::PatchBuffer(0), me),
+                jobs: Link::new(2).wired(me, UnitId::RayBuffer(0)),
+                results: Link::new(2).wired(UnitId::Icu(0), me),
+                remote: Link::new(2).wired(UnitId::Balancer, me),
+                descs: Link::new(2).wired(me, UnitId::RayBuffer(0)),
+                pool: RayList::new(&[0, 1]),
+            }
+        }
+
+        fn ports(&mut self) -> CtuPorts<'_> {
+            CtuPorts {
+                requests: &mut self.requests,
+                arrivals: &mut self.arrivals,
+                jobs: &mut self.jobs,
+                results: &mut self.results,
+                remote_results: &mut self.remote,
+                descs: &mut self.descs,
+                pool: &mut self.pool,
+            }
+        }
     }
 
     trait Commit {
@@ -959,26 +982,10 @@ mod tests {
         assert!(ctu.done());
         assert!(!ctu.is_finished(), "finished is noticed on its next cycle");
         let (cells, _) = scene();
-        let me = UnitId::Ctu(0, 0);
-        let mut requests = Link::new(1).wired(me, UnitId::Memory);
-        let mut arrivals = Link::new(2).wired(UnitId::PatchBuffer(0), me);
-        let mut jobs = Link::new(2).wired(me, UnitId::RayBuffer(0));
-        let mut results = Link::new(2).wired(UnitId::Icu(0), me);
-        let mut remote = Link::new(2).wired(UnitId::Balancer, me);
-        let mut descs = Link::new(2).wired(me, UnitId::RayBuffer(0));
-        let mut pool = RayList::new(&[0, 1]);
+        let mut w = Wires::new();
         let before = ctu.stats;
         for now in 500..510 {
-            let mut io = CtuPorts {
-                requests: &mut requests,
-                arrivals: &mut arrivals,
-                jobs: &mut jobs,
-                results: &mut results,
-                remote_results: &mut remote,
-                descs: &mut descs,
-                pool: &mut pool,
-            };
-            ctu.tick(now, &mut io, &cells);
+            ctu.tick(now, &mut w.ports(), &cells);
         }
         assert!(ctu.is_finished());
         let mut want = before;
