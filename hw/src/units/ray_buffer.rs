@@ -57,6 +57,15 @@ pub struct BundlePorts<'a> {
     pub ctus_per_cluster: usize,
 }
 
+/// A job ray buffer's ports, as [`RayBuffer::tick`] takes them: from each CTU of the cluster,
+/// from the inter-cluster link, the balancer's split orders, the work-items back to it.
+struct JobPorts<'a> {
+    inputs: &'a mut [Link<Job>],
+    from_network: &'a mut Link<Job>,
+    orders: &'a mut Link<SplitOrder>,
+    out: &'a mut Link<WorkItem>,
+}
+
 impl RayBuffer {
     /// A buffer of `capacity` jobs with `inputs` input ports (CTUs + the network).
     pub fn new(capacity: u32, inputs: usize) -> Self {
@@ -215,19 +224,26 @@ impl RayBuffer {
         if orders.is_empty() && from_network.is_empty() && inputs.iter().all(Link::is_empty) {
             return;
         }
-        self.tick_active(cluster, inputs, from_network, orders, out);
+        self.tick_active(
+            cluster,
+            JobPorts {
+                inputs,
+                from_network,
+                orders,
+                out,
+            },
+        );
     }
 
     /// A cycle with an order or a job waiting at an input.
     #[inline(never)]
-    fn tick_active(
-        &mut self,
-        cluster: u16,
-        inputs: &mut [Link<Job>],
-        from_network: &mut Link<Job>,
-        orders: &mut Link<SplitOrder>,
-        out: &mut Link<WorkItem>,
-    ) {
+    fn tick_active(&mut self, cluster: u16, io: JobPorts<'_>) {
+        let JobPorts {
+            inputs,
+            from_network,
+            orders,
+            out,
+        } = io;
         let me = UnitId::RayBuffer(cluster as usize);
         if !orders.is_empty() && out.can_push() {
             let o = orders.pop(me);
