@@ -5,6 +5,8 @@
 use super::links::Links;
 use super::{Machine, TickOrder};
 use crate::config::JobSource;
+use crate::datapath::model::FixedScene;
+use crate::datapath::record::RayRecord;
 use crate::link::{Link, UnitId};
 use crate::units::balancer::BalancerPorts;
 use crate::units::cluster::Cluster;
@@ -89,32 +91,8 @@ impl Machine<'_> {
                 let mut io = ctu_ports(l, &mut self.pool, i);
                 ctu.tick_active(now, &mut io, &scene.cells);
             }
-            if bundle {
-                let mut io = BundlePorts {
-                    inputs: &mut l.descs[at.clone()],
-                    from_network: &mut l.net_desc[c],
-                    orders: &mut l.orders[c],
-                    out: &mut l.items[c],
-                    pool: &self.pool,
-                    ctus_per_cluster: k,
-                };
-                cl.ray_buffer.tick_bundle(c as u16, &mut io);
-            } else {
-                cl.ray_buffer.tick(
-                    c as u16,
-                    &mut l.jobs[at.clone()],
-                    &mut l.net_in[c],
-                    &mut l.orders[c],
-                    &mut l.items[c],
-                );
-            }
-            let mut io = IcuPorts {
-                cluster: c as u16,
-                input: &mut cl.ray_buffer.queue,
-                results: &mut l.results[at],
-                remote: &mut l.remote_out[c],
-            };
-            cl.icu.tick(&mut io, rays, &scene.patches, &scene.formats);
+            tick_ray_buffer(cl, l, &self.pool, c, k, bundle);
+            tick_icu(cl, l, c, k, scene, rays);
         }
     }
 
@@ -153,38 +131,11 @@ impl Machine<'_> {
                 let mut io = ctu_ports(l, &mut self.pool, i);
                 self.clusters[c].ctus[j].tick(now, &mut io, &self.scene.cells);
             }
-            UnitId::RayBuffer(c) if self.cfg.machine.job_source == JobSource::Bundle => {
-                let mut io = BundlePorts {
-                    inputs: Links::of_cluster(&mut l.descs, k, c),
-                    from_network: &mut l.net_desc[c],
-                    orders: &mut l.orders[c],
-                    out: &mut l.items[c],
-                    pool: &self.pool,
-                    ctus_per_cluster: k,
-                };
-                self.clusters[c].ray_buffer.tick_bundle(c as u16, &mut io);
-            }
             UnitId::RayBuffer(c) => {
-                self.clusters[c].ray_buffer.tick(
-                    c as u16,
-                    Links::of_cluster(&mut l.jobs, k, c),
-                    &mut l.net_in[c],
-                    &mut l.orders[c],
-                    &mut l.items[c],
-                );
+                let bundle = self.cfg.machine.job_source == JobSource::Bundle;
+                tick_ray_buffer(&mut self.clusters[c], l, &self.pool, c, k, bundle);
             }
-            UnitId::Icu(c) => {
-                let scene = self.scene;
-                let cl = &mut self.clusters[c];
-                let mut io = IcuPorts {
-                    cluster: c as u16,
-                    input: &mut cl.ray_buffer.queue,
-                    results: Links::of_cluster(&mut l.results, k, c),
-                    remote: &mut l.remote_out[c],
-                };
-                cl.icu
-                    .tick(&mut io, self.rays, &scene.patches, &scene.formats);
-            }
+            UnitId::Icu(c) => tick_icu(&mut self.clusters[c], l, c, k, self.scene, self.rays),
         }
     }
 
@@ -207,6 +158,56 @@ impl Machine<'_> {
         }
         a
     }
+}
+
+/// Cluster `c`'s ray buffer's cycle, its job form or (`bundle`) its descriptor form.
+#[inline(always)]
+fn tick_ray_buffer(
+    cl: &mut Cluster,
+    l: &mut Links,
+    pool: &[RayList],
+    c: usize,
+    k: usize,
+    bundle: bool,
+) {
+    if bundle {
+        let mut io = BundlePorts {
+            inputs: Links::of_cluster(&mut l.descs, k, c),
+            from_network: &mut l.net_desc[c],
+            orders: &mut l.orders[c],
+            out: &mut l.items[c],
+            pool,
+            ctus_per_cluster: k,
+        };
+        cl.ray_buffer.tick_bundle(c as u16, &mut io);
+    } else {
+        cl.ray_buffer.tick(
+            c as u16,
+            Links::of_cluster(&mut l.jobs, k, c),
+            &mut l.net_in[c],
+            &mut l.orders[c],
+            &mut l.items[c],
+        );
+    }
+}
+
+/// Cluster `c`'s ICU's cycle (it takes its jobs from the ray buffer's queue).
+#[inline(always)]
+fn tick_icu(
+    cl: &mut Cluster,
+    l: &mut Links,
+    c: usize,
+    k: usize,
+    scene: &FixedScene,
+    rays: &[RayRecord],
+) {
+    let mut io = IcuPorts {
+        cluster: c as u16,
+        input: &mut cl.ray_buffer.queue,
+        results: Links::of_cluster(&mut l.results, k, c),
+        remote: &mut l.remote_out[c],
+    };
+    cl.icu.tick(&mut io, rays, &scene.patches, &scene.formats);
 }
 
 /// CTU `i`'s ports (per-CTU families are cluster-major: `i = c·k + j`).
