@@ -77,11 +77,8 @@ impl CtuState {
 /// One ray of the sector.
 #[derive(Clone, Copy, Debug)]
 struct RaySlot {
-    /// The ray's global id.
-    ray: u32,
     /// Its DDA position; `None` once it has left the grid.
     dda: Option<FixedDda>,
-    best: Option<FixedHit>,
     retired: bool,
     /// Overlapped joins: the position before the first step taken while traversing
     /// subshell `snap_sub` (so the join of subshell `snap_sub − 1` sees where it ended).
@@ -204,7 +201,14 @@ pub struct Ctu {
     /// can reach it any more, so every later cycle is an idle one in DONE.
     finished: bool,
     pub state: CtuState,
+    /// Per ray (its slot): the traversal's state. The ray's id and its best hit so far, read
+    /// per issued job and per result, are apart in dense arrays by slot: a slot is a few
+    /// hundred bytes, and reaching into it per job cost a cache miss per job.
     slots: Vec<RaySlot>,
+    /// Per slot: the ray's global id.
+    ray_ids: Vec<u32>,
+    /// Per slot: the nearest hit so far.
+    best: Vec<Option<FixedHit>>,
     /// Slots of the rays not retired at the last join, ascending.
     remaining: Vec<u32>,
     loaded: BitVec,
@@ -249,9 +253,7 @@ impl Ctu {
         let slots: Vec<RaySlot> = rays
             .iter()
             .map(|&r| RaySlot {
-                ray: r,
                 dda: FixedDda::new(cells, &records[r as usize]),
-                best: None,
                 retired: false,
                 snap: None,
                 snap_sub: u32::MAX,
@@ -263,7 +265,9 @@ impl Ctu {
             finished: false,
             state: CtuState::Idle,
             remaining: (0..slots.len() as u32).collect(),
+            best: vec![None; slots.len()],
             slots,
+            ray_ids: rays.to_vec(),
             loaded: bitvec![0; patches],
             shell: 0,
             shell_limit: 0,
@@ -300,7 +304,7 @@ impl Ctu {
 
     /// Each ray's nearest hit: (global ray id, hit).
     pub fn hits(&self) -> impl Iterator<Item = (u32, Option<FixedHit>)> + '_ {
-        self.slots.iter().map(|s| (s.ray, s.best))
+        self.ray_ids.iter().copied().zip(self.best.iter().copied())
     }
 
     /// The shell being processed.
@@ -451,9 +455,11 @@ impl Ctu {
         for port in [&mut *io.results, &mut *io.remote_results] {
             if port.valid() {
                 let r = port.pop(me);
-                let slot = &mut self.slots[r.slot as usize];
                 if let Some(t) = r.t {
-                    compare(&mut slot.best, FixedHit { patch: r.patch, t });
+                    compare(
+                        &mut self.best[r.slot as usize],
+                        FixedHit { patch: r.patch, t },
+                    );
                 }
                 self.outstanding -= 1;
                 if self.p.overlap {
@@ -471,7 +477,7 @@ impl Ctu {
                     io.jobs.push(
                         me,
                         Job {
-                            ray: self.slots[slot as usize].ray,
+                            ray: self.ray_ids[slot as usize],
                             slot,
                             patch,
                             ctu: self.p.local,
@@ -654,14 +660,13 @@ impl Ctu {
     /// cell if it is entered inside the shell, else move on.
     fn enter_ray(&mut self) -> CtuState {
         while self.cursor < self.remaining.len() {
-            let slot = &self.slots[self.remaining[self.cursor] as usize];
-            if let Some(d) = &slot.dda {
+            let s = self.remaining[self.cursor] as usize;
+            if let Some(d) = &self.slots[s].dda {
                 // Overlapped joins: a ray that its hit so far already retires (its next cell
                 // starts beyond it, and later results can only bring the hit nearer) is not
                 // walked again; it retires at the next join.
                 let retires = self.p.overlap
-                    && slot
-                        .best
+                    && self.best[s]
                         .is_some_and(|b| d.entry_beyond(b.t + STOP_SLACK_T_LSB, self.p.t_frac));
                 if !retires && !d.entry_at_or_beyond(self.shell_limit, self.p.t_frac) {
                     self.cell_pos = 0;
@@ -756,7 +761,7 @@ impl Ctu {
         let tf = self.p.t_frac;
         for &s in &self.remaining {
             let slot = &mut self.slots[s as usize];
-            slot.retired = match (at(slot), slot.best) {
+            slot.retired = match (at(slot), self.best[s as usize]) {
                 (None, _) => true,
                 (Some(p), Some(b)) => p.entry_beyond(b.t + STOP_SLACK_T_LSB, tf),
                 (Some(_), None) => false,
@@ -765,8 +770,8 @@ impl Ctu {
         self.remaining.retain(|&s| !self.slots[s as usize].retired);
         if self.p.bundle {
             self.list ^= 1;
-            let slots = &self.slots;
-            pool.write(self.list, &self.remaining, |s| slots[s as usize].ray);
+            let ids = &self.ray_ids;
+            pool.write(self.list, &self.remaining, |s| ids[s as usize]);
         }
     }
 
