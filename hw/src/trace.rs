@@ -1,6 +1,7 @@
 //! The trace interface: the machine declares its signals to a [`Probe`] once, then hands it
-//! one flat array of values per sample (after each clock edge). The host's waveform writers
-//! implement it; hw/ knows nothing of files or formats.
+//! one flat array of values per sample (after each clock edge), with the positions that
+//! changed since the last. The host's waveform writers implement it; hw/ knows nothing of
+//! files or formats.
 
 /// How a signal's value is to be read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,6 +34,15 @@ pub trait Probe {
     /// The values at cycle `t` (strictly increasing), one per declared signal, each masked
     /// to its width (a text signal's value is its name's index).
     fn sample(&mut self, t: u64, values: &[u64]);
+    /// The values at cycle `t` as [`Probe::sample`] takes them, with `changed`: the
+    /// positions, ascending, whose value differs from the previous sample's (at the first
+    /// sample, those not zero). A probe that keeps the values of the samples it saw writes
+    /// only these; the default hands `values` to [`Probe::sample`]. The machine calls this
+    /// one, having found the changes while filling the array.
+    fn sample_changes(&mut self, t: u64, values: &[u64], changed: &[u32]) {
+        let _ = changed;
+        self.sample(t, values);
+    }
     /// True when the probe cannot go on (a waveform past its size limit): the machine then
     /// ends the run early and the caller reports the probe's error.
     fn stop(&self) -> bool {

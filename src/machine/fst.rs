@@ -2,15 +2,15 @@
 //! `.fst` path, on the patched `fst-writer` crate (vendor/fst-writer).
 //!
 //! It runs on the waveform's own thread, fed the samples' value arrays in order by the
-//! simulation thread (the VCD's sample stream, `super::vcd`): each sample is compared with
-//! the previous one eight values at a time, and each changed declared value goes to the crate
+//! simulation thread (the VCD's sample stream, `super::vcd`): each sample comes as its
+//! changed values (the machine finds them as it fills its array), and each changed declared value goes to the crate
 //! as an integer (a text, an FSM state, as the bits of its ASCII characters), which encodes
 //! it into its signal's change chain; each section is compressed (zlib format, libdeflate)
 //! and written in turn by the crate's compressor thread while the next one fills, so the
 //! file's bytes do not depend on the timing. Sections are cut every
 //! [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
 
-use super::vcd::{change_masks, Body, BodyEnd, BodyError, Clock, ThreadBody, Window};
+use super::vcd::{Body, BodyEnd, BodyError, Clock, ThreadBody, Window};
 use fst_writer::{FstBodyWriter, FstCompression, FstSignalId};
 use std::fs::File;
 use std::io::{self, BufWriter};
@@ -49,8 +49,6 @@ pub(crate) struct FstBody {
     order: Vec<usize>,
     /// The last sample's values and the window.
     prev: Vec<u64>,
-    /// Per eight values, which of them changed (the compare's pass; reused).
-    masks: Vec<u8>,
     clock: Clock,
     /// One sample's integer changes, handed over together (room for every signal).
     batch: Vec<(FstSignalId, u64)>,
@@ -121,7 +119,6 @@ impl FstBody {
                 .collect(),
             order,
             prev: vec![0; handles.len()],
-            masks: vec![0; handles.len().div_ceil(8)],
             clock: Clock::default(),
             batch: Vec::with_capacity(handles.len()),
             text_batch: Vec::with_capacity(handles.len()),
@@ -181,22 +178,14 @@ impl Body for FstBody {
         self.write_batch(t).map(|_| ())
     }
 
-    /// Compares `values` with the last sample (a pass of eight-value change masks), takes
-    /// them, and writes time `t` and the changed declared values (nothing when none
-    /// changed); cuts a section past [`FST_FLUSH_BYTES`].
-    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
-        let mut masks = std::mem::take(&mut self.masks);
-        change_masks(&self.prev, values, &mut masks);
-        self.prev.copy_from_slice(values);
-        for (b, &m) in masks.iter().enumerate() {
-            let mut m = m;
-            while m != 0 {
-                let i = 8 * b + m.trailing_zeros() as usize;
-                m &= m - 1;
-                self.take(i, values[i]);
-            }
+    /// Takes the sample's changes and writes time `t` and the changed declared values
+    /// (nothing when none is declared); cuts a section past [`FST_FLUSH_BYTES`].
+    fn write_changes(&mut self, t: u64, changes: &[u64]) -> io::Result<()> {
+        for c in changes.chunks_exact(2) {
+            let (i, v) = (c[0] as usize, c[1]);
+            self.prev[i] = v;
+            self.take(i, v);
         }
-        self.masks = masks;
         if self.write_batch(t)? && self.stamps.is_multiple_of(256) && self.size > FST_FLUSH_BYTES {
             self.size = 0;
             self.w.flush().map_err(fst_err)?;
@@ -210,8 +199,8 @@ impl ThreadBody for FstBody {
         self.prev.len()
     }
 
-    fn sample(&mut self, win: Window, t: u64, values: &[u64]) -> Result<(), BodyError> {
-        self.take_sample(win, t, values).map_err(BodyError::Io)
+    fn sample(&mut self, win: Window, t: u64, changes: &[u64]) -> Result<(), BodyError> {
+        self.take_sample(win, t, changes).map_err(BodyError::Io)
     }
 
     /// Writes the last section and the header's totals.

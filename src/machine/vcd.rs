@@ -15,7 +15,9 @@
 //! 1234), whereas with 1 ps long runs would be shown scaled to ns or µs.
 //!
 //! **Changes only.** The probe declares its signals once (position = id); each sample is one
-//! flat value array, compared with the last (one pass of eight-value change masks). The writer writes a `#t` line only
+//! flat value array with the positions whose value changed since the last (the machine finds
+//! them while filling the array; a caller of [`Probe::sample`] hands whole arrays, which the
+//! writer compares with the last). The writer writes a `#t` line only
 //! when something declared changed at cycle t, and formats the change lines by hand (the
 //! same bytes as the `vcd` crate's writer, which still writes the header). The machine probes after every clock edge
 //! it simulates; cycles skipped by its cycle jump change nothing, so the waveform is the same.
@@ -25,9 +27,9 @@
 //! A scope filter (a glob with `*`/`?`, or else a substring, on the full dotted scope):
 //! signals outside it are not declared at all.
 //!
-//! **Output.** The samples go to the waveform's own thread, which compares them and writes
-//! the changes in the order sent (`SampleStream`; the simulation thread only copies its value
-//! array): a VCD's lines (`VcdBody`), an FST's chains (`super::fst::FstBody`). Either streams
+//! **Output.** The samples' changes go to the waveform's own thread, which writes them in
+//! the order sent (`SampleStream`; the simulation thread only copies the changed positions
+//! and values): a VCD's lines (`VcdBody`), an FST's chains (`super::fst::FstBody`). Either streams
 //! into a temporary file beside the target, renamed into place by [`VcdWriter::finish`]
 //! (dropping an unfinished writer deletes it), so memory stays bounded on long runs and a
 //! failed run leaves no half-written file. The header holds no date, so the same run gives a
@@ -231,25 +233,27 @@ pub struct VcdSummary {
 }
 
 /// The waveform body's thread, fed by the simulation thread: each sample goes over as its
-/// cycle and its value array, one record after another in large chunks; the thread compares
-/// every sample with the last and writes the changes (a [`ThreadBody`]: the VCD's lines or
-/// the FST's chains). The simulation thread only copies its value array, and the bytes are
-/// the same whatever the timing (the thread takes the samples in the order sent). Chunks go
+/// cycle, its number of changes and each change's position and value, one record after
+/// another in large chunks; the thread applies them to the last sample's values and writes
+/// them (a [`ThreadBody`]: the VCD's lines or the FST's chains). The simulation thread only
+/// copies the changes (some 65 of the paper's machine's 435 values a cycle), and the bytes
+/// are the same whatever the timing (the thread takes the samples in the order sent). Chunks go
 /// through a bounded channel (memory stays bounded) and come back empty to be reused (no
 /// allocation per sample, nor per chunk once a few circulate).
 struct SampleStream {
     tx: std::sync::mpsc::SyncSender<Vec<u64>>,
     back: std::sync::mpsc::Receiver<Vec<u64>>,
-    /// Samples not yet sent: each its cycle, then its values.
+    /// Samples not yet sent: each its cycle, its number of changes, then each change's
+    /// position and value.
     chunk: Vec<u64>,
-    /// Words of a chunk (at least one sample).
+    /// Words of a chunk (at least one sample with every value changed).
     chunk_words: usize,
     /// Set by the thread once the waveform passed its size limit: the run then stops.
     over: Arc<AtomicBool>,
     handle: std::thread::JoinHandle<std::result::Result<BodyEnd, BodyError>>,
 }
 
-/// Words of a sample chunk: 512 KiB, about 150 samples of the paper's machine.
+/// Words of a sample chunk: 512 KiB, about 500 samples of the paper's machine.
 const CHUNK_WORDS: usize = 1 << 16;
 
 /// What a waveform body's thread ends with.
@@ -273,32 +277,39 @@ pub(crate) trait ThreadBody: Body + Send + 'static {
     fn begin(&mut self) -> io::Result<()> {
         Ok(())
     }
-    /// The sample at `t`, in the window `win`.
-    fn sample(&mut self, win: Window, t: u64, values: &[u64])
-        -> std::result::Result<(), BodyError>;
+    /// The sample at `t`, in the window `win`: its changes, position and value in turn.
+    fn sample(
+        &mut self,
+        win: Window,
+        t: u64,
+        changes: &[u64],
+    ) -> std::result::Result<(), BodyError>;
     /// After the last sample: the file, written out, and the `#t` lines (time changes).
     fn end(self) -> io::Result<BodyEnd>;
 }
 
-/// Takes the chunks until the channel closes, each sample in turn; every chunk goes back
-/// empty.
+/// Takes the chunks until the channel closes, each sample in turn (its cycle, its number of
+/// changes, the changes); every chunk goes back empty.
 fn run_body<B: ThreadBody>(
     mut body: B,
     win: Window,
     rx: std::sync::mpsc::Receiver<Vec<u64>>,
     back: std::sync::mpsc::Sender<Vec<u64>>,
 ) -> std::result::Result<BodyEnd, BodyError> {
-    let stride = body.values() + 1;
     body.begin().map_err(BodyError::Io)?;
     let mut failed = None;
     for mut chunk in rx {
-        if failed.is_none() {
-            for rec in chunk.chunks_exact(stride) {
-                if let Err(e) = body.sample(win, rec[0], &rec[1..]) {
-                    failed = Some(e);
-                    break;
-                }
+        let mut rest = &chunk[..];
+        while failed.is_none() && rest.len() >= 2 {
+            let (t, n) = (rest[0], 2 * rest[1] as usize);
+            let Some(changes) = rest.get(2..2 + n) else {
+                failed = Some(BodyError::Io(io::Error::other("a truncated sample record")));
+                break;
+            };
+            if let Err(e) = body.sample(win, t, changes) {
+                failed = Some(e);
             }
+            rest = &rest[2 + n..];
         }
         chunk.clear();
         // The writer may be gone (finished or dropped): nothing to hand back to.
@@ -315,7 +326,7 @@ impl SampleStream {
     fn start<B: ThreadBody>(body: B, win: Window, over: Arc<AtomicBool>) -> Self {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u64>>(2);
         let (back_tx, back) = std::sync::mpsc::channel();
-        let chunk_words = CHUNK_WORDS.max(body.values() + 1);
+        let chunk_words = CHUNK_WORDS.max(2 + 2 * body.values());
         let handle = std::thread::spawn(move || run_body(body, win, rx, back_tx));
         SampleStream {
             tx,
@@ -327,14 +338,20 @@ impl SampleStream {
         }
     }
 
-    /// Queues the sample at `t`.
+    /// Queues the sample at `t`: the values at the positions `changed`.
     #[inline]
-    fn push(&mut self, t: u64, values: &[u64]) {
-        if self.chunk.len() + 1 + values.len() > self.chunk_words {
+    fn push(&mut self, t: u64, values: &[u64], changed: &[u32]) {
+        let words = 2 + 2 * changed.len();
+        if self.chunk.len() + words > self.chunk_words {
             self.send();
         }
+        // The chunk's capacity holds it (`chunk_words`): the pushes never grow it.
         self.chunk.push(t);
-        self.chunk.extend_from_slice(values);
+        self.chunk.push(changed.len() as u64);
+        for &i in changed {
+            self.chunk.push(i as u64);
+            self.chunk.push(values[i as usize]);
+        }
     }
 
     /// Hands the chunk to the thread, taking a returned one (or a new one) in its place.
@@ -420,27 +437,35 @@ pub(crate) trait Body {
     fn state(&mut self) -> (&mut Clock, &mut [u64]);
     /// Opens the window at `t`: `#t` and every declared value (those of the last sample).
     fn dump_all(&mut self, t: u64) -> io::Result<()>;
-    /// Compares `values` with the last sample, takes them, and writes `#t` and the changed
-    /// declared values (nothing when none changed).
-    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()>;
+    /// Takes the sample's `changes` (position and value in turn, positions ascending) and
+    /// writes `#t` and the changed declared values (nothing when none is declared).
+    fn write_changes(&mut self, t: u64, changes: &[u64]) -> io::Result<()>;
 
-    /// The sample at `t`, in the window `win`.
-    fn take_sample(&mut self, win: Window, t: u64, values: &[u64]) -> io::Result<()> {
+    /// The sample at `t`, in the window `win`: its `changes`, position and value in turn.
+    fn take_sample(&mut self, win: Window, t: u64, changes: &[u64]) -> io::Result<()> {
         let (open_at_from, step) = self.state().0.step(win, t)?;
         if open_at_from {
             self.dump_all(win.from)?;
         }
         match step {
-            Step::Changes => self.write_changes(t, values),
+            Step::Changes => self.write_changes(t, changes),
             Step::Take => {
-                self.state().1.copy_from_slice(values);
+                apply(self.state().1, changes);
                 Ok(())
             }
             Step::TakeAndOpen => {
-                self.state().1.copy_from_slice(values);
+                apply(self.state().1, changes);
                 self.dump_all(t)
             }
         }
+    }
+}
+
+/// Sets the values at the positions of `changes` (position and value in turn).
+#[inline]
+pub(crate) fn apply(values: &mut [u64], changes: &[u64]) {
+    for c in changes.chunks_exact(2) {
+        values[c[0] as usize] = c[1];
     }
 }
 
@@ -452,8 +477,6 @@ struct VcdBody {
     declared: Vec<usize>,
     /// The last sample's values (those holding now).
     prev: Vec<u64>,
-    /// Per eight values, which of them changed (the compare's pass; reused).
-    masks: Vec<u8>,
     clock: Clock,
     samples: u64,
     timestamps: u64,
@@ -493,9 +516,9 @@ impl ThreadBody for VcdBody {
         &mut self,
         win: Window,
         t: u64,
-        values: &[u64],
+        changes: &[u64],
     ) -> std::result::Result<(), BodyError> {
-        self.take_sample(win, t, values).map_err(BodyError::Io)?;
+        self.take_sample(win, t, changes).map_err(BodyError::Io)?;
         self.samples += 1;
         if self.samples.is_multiple_of(1024) {
             let bytes = self.bytes_out + self.at as u64;
@@ -583,58 +606,22 @@ impl Body for VcdBody {
         self.put(b"$end\n")
     }
 
-    /// In two passes: the compare alone, a mask of the changed values per eight (no branch
-    /// per value), then the lines of the changed ones.
-    fn write_changes(&mut self, t: u64, values: &[u64]) -> io::Result<()> {
-        let mut masks = std::mem::take(&mut self.masks);
-        change_masks(&self.prev, values, &mut masks);
-        self.prev.copy_from_slice(values);
+    /// Each change taken, and the declared ones' lines after `#t`.
+    fn write_changes(&mut self, t: u64, changes: &[u64]) -> io::Result<()> {
         let mut stamped = false;
-        let mut r = Ok(());
-        'blocks: for (b, &m) in masks.iter().enumerate() {
-            let mut m = m;
-            while m != 0 {
-                let i = 8 * b + m.trailing_zeros() as usize;
-                m &= m - 1;
-                if self.slots[i].declared {
-                    if !stamped {
-                        stamped = true;
-                        self.timestamps += 1;
-                        r = self.put_time(t);
-                    }
-                    r = r.and_then(|()| self.put_value(i, values[i]));
-                    if r.is_err() {
-                        break 'blocks;
-                    }
+        for c in changes.chunks_exact(2) {
+            let (i, v) = (c[0] as usize, c[1]);
+            self.prev[i] = v;
+            if self.slots[i].declared {
+                if !stamped {
+                    stamped = true;
+                    self.timestamps += 1;
+                    self.put_time(t)?;
                 }
+                self.put_value(i, v)?;
             }
         }
-        self.masks = masks;
-        r
-    }
-}
-
-/// The compare pass of a sample against the last, shared by the VCD's and the FST's bodies:
-/// `masks[b]` bit `k` set when value `8b + k` changed (no branch per value; `masks` holds
-/// one byte per eight values, the last for the remainder).
-pub(crate) fn change_masks(prev: &[u64], values: &[u64], masks: &mut [u8]) {
-    let mut p8 = prev.chunks_exact(8);
-    let mut v8 = values.chunks_exact(8);
-    let mut mk = masks.iter_mut();
-    for ((p, v), m) in (&mut p8).zip(&mut v8).zip(&mut mk) {
-        let p: &[u64; 8] = p.try_into().expect("8");
-        let v: &[u64; 8] = v.try_into().expect("8");
-        let mut x = 0u8;
-        for k in 0..8 {
-            x |= ((p[k] != v[k]) as u8) << k;
-        }
-        *m = x;
-    }
-    if let Some(m) = mk.next() {
-        let rest = p8.remainder().iter().zip(v8.remainder());
-        *m = rest
-            .enumerate()
-            .fold(0, |x, (k, (p, v))| x | ((p != v) as u8) << k);
+        Ok(())
     }
 }
 
@@ -687,6 +674,14 @@ pub struct VcdWriter {
     declared: Vec<usize>,
     /// The last sample's cycle (the thread keeps the values and the window).
     last_t: Option<u64>,
+    /// The last sample's values, for [`Probe::sample`]'s whole arrays (compared with them
+    /// here), and the positions found changed (reused).
+    last: Vec<u64>,
+    changed: Vec<u32>,
+    /// Which form the samples come in, once the first came: whole arrays (`sample`) or
+    /// change lists (`sample_changes`). One writer takes one form: `last` follows only the
+    /// first.
+    whole: Option<bool>,
     /// True once the layout is declared and the header written.
     header_done: bool,
     samples: u64,
@@ -739,6 +734,9 @@ impl VcdWriter {
             slots: Vec::new(),
             declared: Vec::new(),
             last_t: None,
+            last: Vec::new(),
+            changed: Vec::new(),
+            whole: None,
             header_done: false,
             samples: 0,
             timestamps: 0,
@@ -802,6 +800,48 @@ impl VcdWriter {
             timestamps: self.timestamps,
             bytes,
         })
+    }
+
+    /// True when a sample of `n` values at `t` (a whole array or not) is to be written: the
+    /// layout declared, as many values as signals, the same form as the first sample's, time
+    /// increasing (else the error is recorded).
+    fn accepts(&mut self, t: u64, n: usize, whole: bool) -> bool {
+        if self.error.is_some() {
+            return false;
+        }
+        if *self.whole.get_or_insert(whole) != whole {
+            self.fail("a probe handed both whole samples and change lists");
+            return false;
+        }
+        if !self.header_done {
+            self.fail("a probe sampled before declaring its signals");
+            return false;
+        }
+        if n != self.slots.len() {
+            let msg = format!("cycle {t}: {n} values for {} signals", self.slots.len());
+            self.fail(msg);
+            return false;
+        }
+        if self.stream.is_none() {
+            // The header failed (an error recorded above).
+            return false;
+        }
+        if let Some(prev) = self.last_t.filter(|&p| t <= p) {
+            self.fail(format!(
+                "writing: cycle {t} after cycle {prev}: time must increase"
+            ));
+            return false;
+        }
+        self.last_t = Some(t);
+        self.samples += 1;
+        true
+    }
+
+    /// Hands the sample's changes to the thread, which writes them (`VcdBody`, `FstBody`).
+    fn queue(&mut self, t: u64, values: &[u64], changed: &[u32]) {
+        if let Some(s) = &mut self.stream {
+            s.push(t, values, changed);
+        }
     }
 
     /// Records `e` as the first error.
@@ -886,7 +926,6 @@ impl VcdWriter {
             slots: self.slots.clone(),
             declared: order.clone(),
             prev: vec![0; self.slots.len()],
-            masks: vec![0; self.slots.len().div_ceil(8)],
             clock: Clock::default(),
             samples: 0,
             timestamps: 0,
@@ -954,42 +993,33 @@ impl Probe for VcdWriter {
                 }
             })
             .collect();
+        self.last = vec![0; self.slots.len()];
         if let Err(e) = self.write_header() {
             self.fail(format!("writing: {e}"));
         }
     }
 
+    /// A whole value array: compared here with the last sample's.
     fn sample(&mut self, t: u64, values: &[u64]) {
-        if self.error.is_some() {
+        if !self.accepts(t, values.len(), true) {
             return;
         }
-        if !self.header_done {
-            self.fail("a probe sampled before declaring its signals");
-            return;
+        let mut changed = std::mem::take(&mut self.changed);
+        changed.clear();
+        for (i, (last, &v)) in self.last.iter_mut().zip(values).enumerate() {
+            if *last != v {
+                *last = v;
+                changed.push(i as u32);
+            }
         }
-        if values.len() != self.slots.len() {
-            let msg = format!(
-                "cycle {t}: {} values for {} signals",
-                values.len(),
-                self.slots.len()
-            );
-            self.fail(msg);
-            return;
+        self.queue(t, values, &changed);
+        self.changed = changed;
+    }
+
+    fn sample_changes(&mut self, t: u64, values: &[u64], changed: &[u32]) {
+        if self.accepts(t, values.len(), false) {
+            self.queue(t, values, changed);
         }
-        let Some(s) = &mut self.stream else {
-            // The header failed (an error recorded above).
-            return;
-        };
-        // The thread compares and writes (`VcdBody`, `FstBody`).
-        if let Some(prev) = self.last_t.filter(|&p| t <= p) {
-            self.fail(format!(
-                "writing: cycle {t} after cycle {prev}: time must increase"
-            ));
-            return;
-        }
-        self.last_t = Some(t);
-        self.samples += 1;
-        s.push(t, values);
     }
 
     fn stop(&self) -> bool {
@@ -1460,6 +1490,78 @@ mod tests {
         w.sample(0, &[1]);
         w.sample(1, &[1, 2]);
         assert!(w.finish().is_err());
+        assert!(!p.exists());
+    }
+
+    /// A sample sequence with a window opening between samples, texts and wide values.
+    fn samples() -> Vec<(u64, Vec<u64>)> {
+        (0..60u64)
+            .map(|k| {
+                let t = 3 * k + (k % 3);
+                (
+                    t,
+                    vec![k % 5, (k / 3) & 1, k % 2, (k * k * 977) & 0xFFFF_FFFF],
+                )
+            })
+            .collect()
+    }
+
+    fn layout() -> Vec<SignalDecl> {
+        vec![
+            decl("top.a", "x", 4, HwKind::Bits),
+            decl("top.a", "v", 1, HwKind::Bits),
+            decl("top", "state", 1, HwKind::Text(&["IDLE", "BUSY"])),
+            decl("top.b", "w", 32, HwKind::Bits),
+        ]
+    }
+
+    /// Each writer form's file for `samples()`, in the window 40:140.
+    fn written(ext: &str, change_lists: bool) -> Vec<u8> {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join(format!("t.{ext}"));
+        let opts = VcdOptions {
+            window: Window::parse("40:140").unwrap(),
+            ..VcdOptions::default()
+        };
+        let mut w = VcdWriter::create(&p, opts).unwrap();
+        w.declare(&layout());
+        let mut last = vec![0u64; 4];
+        for (t, v) in samples() {
+            if change_lists {
+                let changed: Vec<u32> = (0..4u32)
+                    .filter(|&i| v[i as usize] != last[i as usize])
+                    .collect();
+                w.sample_changes(t, &v, &changed);
+                last = v;
+            } else {
+                w.sample(t, &v);
+            }
+        }
+        let s = w.finish().unwrap();
+        assert!(s.timestamps > 20, "{s:?}");
+        std::fs::read(&p).unwrap()
+    }
+
+    #[test]
+    fn change_lists_give_the_same_vcd_as_whole_samples() {
+        assert_eq!(written("vcd", true), written("vcd", false));
+    }
+
+    #[test]
+    fn change_lists_give_the_same_fst_as_whole_samples() {
+        assert_eq!(written("fst", true), written("fst", false));
+    }
+
+    #[test]
+    fn a_writer_taking_whole_samples_and_change_lists_is_an_error() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.vcd");
+        let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
+        w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
+        w.sample(0, &[1]);
+        w.sample_changes(1, &[2], &[0]);
+        let e = w.finish().unwrap_err().to_string();
+        assert!(e.contains("both whole samples and change lists"), "{e}");
         assert!(!p.exists());
     }
 }

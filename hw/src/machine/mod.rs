@@ -70,6 +70,8 @@ pub struct Machine<'a> {
     scopes: Option<probe::Scopes>,
     /// The probe's value array, one per signal (allocated with the layout, reused).
     probe_values: Vec<u64>,
+    /// The positions of the last sample's changed values (as long as `probe_values`).
+    probe_changes: Vec<u32>,
     /// Cycles the clock jumped over (not in the statistics, which must not depend on it).
     pub skipped_cycles: u64,
     /// A cluster that held work (its ICU or a buffer not empty) at the last look: the run
@@ -181,6 +183,7 @@ impl<'a> Machine<'a> {
             order,
             scopes: None,
             probe_values: Vec::new(),
+            probe_changes: Vec::new(),
             skipped_cycles: 0,
             busy: Cell::new(0),
             progress: 0,

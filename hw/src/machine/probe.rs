@@ -1,9 +1,10 @@
 //! The machine's waveform: every unit's signals and every link's handshake. One walk
 //! ([`Machine::walk`]) visits them in the waveform's signal order: on the first sample it
 //! declares the layout to the [`Probe`] (scope names built once), on every sample it fills a
-//! flat value array, position = signal id, handed to the probe whole — no string is touched
-//! per cycle and nothing is allocated. The array keeps the last sample's values, so an empty
-//! ICU's stages (all zero) are skipped when it was empty at the last sample too.
+//! flat value array, position = signal id, handed to the probe whole with the positions whose
+//! value changed (each put compares the value it replaces, without a branch) — no string is
+//! touched per cycle and nothing is allocated. The array keeps the last sample's values, so
+//! an empty ICU's stages (all zero) are skipped when it was empty at the last sample too.
 
 use super::links::{probe_link, Section};
 use super::Machine;
@@ -88,6 +89,9 @@ const FILL_CAP: usize = 1 << 12;
 struct Fill<'a> {
     values: &'a mut [u64; FILL_CAP],
     pos: usize,
+    /// The positions whose value changed, ascending: `changes[..changed]`.
+    changes: &'a mut [u32; FILL_CAP],
+    changed: usize,
     /// Per cluster: its ICU was empty at the last sample.
     icu_idle: &'a mut [bool],
     /// The array holds a whole earlier sample (unchanged links may be skipped).
@@ -95,9 +99,15 @@ struct Fill<'a> {
 }
 
 impl Fill<'_> {
+    /// Puts `v` at the next position, noting the position when its value changes: it is
+    /// written to the list unconditionally and counted only then (no branch per value; the
+    /// count never passes the position, so the list never overflows).
     #[inline(always)]
     fn put(&mut self, v: u64) {
-        self.values[self.pos % FILL_CAP] = v;
+        let i = self.pos % FILL_CAP;
+        let old = std::mem::replace(&mut self.values[i], v);
+        self.changes[self.changed % FILL_CAP] = i as u32;
+        self.changed += (old != v) as usize;
         self.pos += 1;
     }
 }
@@ -107,6 +117,7 @@ impl Fill<'_> {
 struct FillChecked<'a> {
     values: &'a mut [u64],
     pos: usize,
+    changes: &'a mut Vec<u32>,
     icu_idle: &'a mut [bool],
     filled_before: bool,
 }
@@ -115,7 +126,10 @@ impl FillChecked<'_> {
     #[inline(always)]
     fn put(&mut self, v: u64) {
         if let Some(x) = self.values.get_mut(self.pos) {
-            *x = v;
+            if *x != v {
+                *x = v;
+                self.changes.push(self.pos as u32);
+            }
         }
         self.pos += 1;
     }
@@ -174,6 +188,7 @@ impl Machine<'_> {
             p.declare(&d.0);
             let n = d.0.len();
             self.probe_values = vec![0; n.max(FILL_CAP)];
+            self.probe_changes = vec![0; n.max(FILL_CAP)];
             self.scopes = Some(Scopes {
                 signals: n,
                 icu_idle: vec![false; self.clusters.len()],
@@ -183,34 +198,44 @@ impl Machine<'_> {
         }
         let mut sc = self.scopes.take().expect("built above");
         let mut values = std::mem::take(&mut self.probe_values);
+        let mut changes = std::mem::take(&mut self.probe_changes);
         let mut icu_idle = std::mem::take(&mut sc.icu_idle);
         let n = sc.signals;
-        let filled = match <&mut [u64; FILL_CAP]>::try_from(&mut values[..]) {
-            Ok(values) if n <= FILL_CAP => {
+        let fixed = (
+            <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
+            <&mut [u32; FILL_CAP]>::try_from(&mut changes[..]),
+        );
+        let (filled, changed) = match fixed {
+            (Ok(values), Ok(changes)) if n <= FILL_CAP => {
                 let mut f = Fill {
                     values,
                     pos: 0,
+                    changes,
+                    changed: 0,
                     icu_idle: &mut icu_idle,
                     filled_before: sc.filled,
                 };
                 self.walk(&sc, &mut f);
-                f.pos
+                (f.pos, f.changed)
             }
             _ => {
+                changes.clear();
                 let mut f = FillChecked {
                     values: &mut values,
                     pos: 0,
+                    changes: &mut changes,
                     icu_idle: &mut icu_idle,
                     filled_before: sc.filled,
                 };
                 self.walk(&sc, &mut f);
-                f.pos
+                (f.pos, changes.len())
             }
         };
         assert_eq!(filled, n, "the walk's layout never changes");
         sc.filled = true;
-        p.sample(self.cycle, &values[..n]);
+        p.sample_changes(self.cycle, &values[..n], &changes[..changed]);
         self.probe_values = values;
+        self.probe_changes = changes;
         sc.icu_idle = icu_idle;
         self.scopes = Some(sc);
     }
@@ -312,18 +337,15 @@ impl Machine<'_> {
             // Four signals a stage (the count `skip_idle_icu` is told), all zero when empty.
             let depth = cl.icu.depth();
             if !p.skip_idle_icu(c, cl.icu.is_empty(), 4 * depth) {
-                for n in 0..depth {
-                    // t is shown in the result stage only (`stage_job` gives it there alone).
-                    let (valid, ray, patch, t) = match cl.icu.stage_job(n) {
-                        Some((j, t)) => (1, j.ray as u64, j.patch as u64, t.unwrap_or(0)),
-                        None => (0, 0, 0, 0),
-                    };
-                    let ss = &cs.stages[n];
+                // t is shown in the result stage only (`stage_job` gives it there alone).
+                let mut stages = cs.stages.iter();
+                cl.icu.for_each_stage(|valid, ray, patch, t| {
+                    let ss = stages.next().map_or("", String::as_str);
                     p.bits(ss, "valid", 1, valid);
                     p.bits(ss, "ray", 32, ray);
                     p.bits(ss, "patch", 24, patch);
                     p.fixed(ss, "t", t_bits, t_frac, t);
-                }
+                });
             }
         }
     }

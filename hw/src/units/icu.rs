@@ -155,6 +155,26 @@ impl Icu {
         self.reg(k).map(|r| (r.job, if last { r.t } else { None }))
     }
 
+    /// Calls `f` with every stage's waveform values in stage order — valid, ray, patch and
+    /// t (t in the result stage only), all zero for an empty stage — as [`Icu::stage_job`]
+    /// gives them, walking the ring as its two halves (no division per stage) and masking
+    /// instead of branching on each stage's valid bit (the waveform's probe, every sample).
+    #[inline]
+    pub fn for_each_stage(&self, mut f: impl FnMut(u64, u64, u64, i64)) {
+        let (wrapped, from_base) = self.slots.split_at(self.base);
+        let last = self.slots.len() - 1;
+        for (k, r) in from_base.iter().chain(wrapped).enumerate() {
+            let m = (r.valid as u64).wrapping_neg();
+            let t = if k == last { r.t.unwrap_or(0) } else { 0 };
+            f(
+                m & 1,
+                m & r.job.ray as u64,
+                m & r.job.patch as u64,
+                m as i64 & t,
+            );
+        }
+    }
+
     #[inline]
     fn reg(&self, k: usize) -> Option<&Reg> {
         let r = &self.slots[(self.base + k) % self.slots.len()];
@@ -363,6 +383,58 @@ mod tests {
         assert!(icu.is_empty());
         assert!(icu.stats.stalled_cycles > 100, "{:?}", icu.stats);
         assert_eq!(icu.stats.results_out, n as u64);
+    }
+
+    #[test]
+    fn the_stage_walk_gives_every_stage_as_stage_job_does_through_the_rings_wraps() {
+        let (rays, patches, f) = records();
+        let mut icu = Icu::new(4);
+        let mut input: Link<Job> = Link::new(2);
+        let mut results: Vec<Link<JobResult>> = vec![Link::new(2)];
+        let mut remote: Link<RemoteResult> = Link::new(2);
+        let (mut valid_seen, mut empty_seen) = (0, 0);
+        for cycle in 0..300u32 {
+            // Jobs in bursts, results taken every other cycle: stages fill and empty.
+            if cycle % 40 < 25 && input.can_push() {
+                let job = Job {
+                    ray: cycle % 4,
+                    slot: cycle,
+                    patch: 0,
+                    ctu: 0,
+                    owner: 0,
+                };
+                input.push(UnitId::RayBuffer(0), job);
+            }
+            let mut io = IcuPorts {
+                cluster: 0,
+                input: &mut input,
+                results: &mut results,
+                remote: &mut remote,
+            };
+            icu.tick(&mut io, &rays, &patches, &f);
+            if cycle % 2 == 0 && results[0].peek().is_some() {
+                results[0].pop(UnitId::Ctu(0, 0));
+            }
+            input.commit();
+            results[0].commit();
+            remote.commit();
+            let mut walked = Vec::new();
+            icu.for_each_stage(|v, r, p, t| walked.push((v, r, p, t)));
+            let by_stage: Vec<_> = (0..icu.depth())
+                .map(|k| match icu.stage_job(k) {
+                    Some((j, t)) => (1, j.ray as u64, j.patch as u64, t.unwrap_or(0)),
+                    None => (0, 0, 0, 0),
+                })
+                .collect();
+            assert_eq!(walked, by_stage, "cycle {cycle}");
+            valid_seen += walked.iter().filter(|w| w.0 == 1).count();
+            empty_seen += walked.iter().filter(|w| w.0 == 0).count();
+        }
+        assert!(
+            valid_seen > 100 && empty_seen > 100,
+            "{valid_seen} {empty_seen}"
+        );
+        assert!(icu.stats.results_out > 50, "{:?}", icu.stats);
     }
 
     #[test]
