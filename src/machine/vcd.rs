@@ -238,14 +238,16 @@ pub struct VcdSummary {
 /// them (a [`ThreadBody`]: the VCD's lines or the FST's chains). The simulation thread only
 /// copies the changes (some 65 of the paper's machine's 435 values a cycle), and the bytes
 /// are the same whatever the timing (the thread takes the samples in the order sent). Chunks go
-/// through a bounded channel (memory stays bounded) and come back empty to be reused (no
+/// through a bounded channel (memory stays bounded) and come back to be reused (no
 /// allocation per sample, nor per chunk once a few circulate).
 struct SampleStream {
     tx: std::sync::mpsc::SyncSender<Vec<u64>>,
     back: std::sync::mpsc::Receiver<Vec<u64>>,
     /// Samples not yet sent: each its cycle, its number of changes, then each change's
-    /// position and value.
+    /// position and value, in `chunk[..at]` (the chunk is `chunk_words` long, written in
+    /// place: one bound check per sample, none per change).
     chunk: Vec<u64>,
+    at: usize,
     /// Words of a chunk (at least one sample with every value changed).
     chunk_words: usize,
     /// Set by the thread once the waveform passed its size limit: the run then stops.
@@ -289,7 +291,7 @@ pub(crate) trait ThreadBody: Body + Send + 'static {
 }
 
 /// Takes the chunks until the channel closes, each sample in turn (its cycle, its number of
-/// changes, the changes); every chunk goes back empty.
+/// changes, the changes); every chunk goes back to be filled again.
 fn run_body<B: ThreadBody>(
     mut body: B,
     win: Window,
@@ -298,7 +300,7 @@ fn run_body<B: ThreadBody>(
 ) -> std::result::Result<BodyEnd, BodyError> {
     body.begin().map_err(BodyError::Io)?;
     let mut failed = None;
-    for mut chunk in rx {
+    for chunk in rx {
         let mut rest = &chunk[..];
         while failed.is_none() && rest.len() >= 2 {
             let (t, n) = (rest[0], 2 * rest[1] as usize);
@@ -311,8 +313,8 @@ fn run_body<B: ThreadBody>(
             }
             rest = &rest[2 + n..];
         }
-        chunk.clear();
-        // The writer may be gone (finished or dropped): nothing to hand back to.
+        // Back as it is (its length kept, so only its tail is zeroed again). The writer may
+        // be gone (finished or dropped): nothing to hand back to.
         let _ = back.send(chunk);
     }
     if let Some(e) = failed {
@@ -327,11 +329,14 @@ impl SampleStream {
         let (tx, rx) = std::sync::mpsc::sync_channel::<Vec<u64>>(2);
         let (back_tx, back) = std::sync::mpsc::channel();
         let chunk_words = CHUNK_WORDS.max(2 + 2 * body.values());
+        // A chunk is zeroed to its full length once; one sent goes over cut to its samples and
+        // comes back so, and only that tail (under one sample) is zeroed again.
         let handle = std::thread::spawn(move || run_body(body, win, rx, back_tx));
         SampleStream {
             tx,
             back,
-            chunk: Vec::with_capacity(chunk_words),
+            chunk: vec![0; chunk_words],
+            at: 0,
             chunk_words,
             over,
             handle,
@@ -342,32 +347,38 @@ impl SampleStream {
     #[inline]
     fn push(&mut self, t: u64, values: &[u64], changed: &[u32]) {
         let words = 2 + 2 * changed.len();
-        if self.chunk.len() + words > self.chunk_words {
+        if self.at + words > self.chunk_words {
             self.send();
         }
-        // The chunk's capacity holds it (`chunk_words`): the pushes never grow it.
-        self.chunk.push(t);
-        self.chunk.push(changed.len() as u64);
-        for &i in changed {
-            self.chunk.push(i as u64);
-            self.chunk.push(values[i as usize]);
+        let Some(rec) = self.chunk.get_mut(self.at..self.at + words) else {
+            // A sample longer than a chunk: `chunk_words` holds every value changed.
+            unreachable!("a sample record is at most 2 + 2 × values words");
+        };
+        self.at += words;
+        let (head, pairs) = rec.split_at_mut(2);
+        head[0] = t;
+        head[1] = changed.len() as u64;
+        for (p, &i) in pairs.chunks_exact_mut(2).zip(changed) {
+            p[0] = i as u64;
+            p[1] = values[i as usize];
         }
     }
 
-    /// Hands the chunk to the thread, taking a returned one (or a new one) in its place.
+    /// Hands the chunk's samples to the thread, taking a returned chunk (or a new one) in
+    /// its place.
     fn send(&mut self) {
-        let next = self
-            .back
-            .try_recv()
-            .unwrap_or_else(|_| Vec::with_capacity(self.chunk_words));
-        let full = std::mem::replace(&mut self.chunk, next);
+        let mut next = self.back.try_recv().unwrap_or_default();
+        next.resize(self.chunk_words, 0);
+        let mut full = std::mem::replace(&mut self.chunk, next);
+        full.truncate(self.at);
+        self.at = 0;
         // A closed channel: the thread stopped on an error, which `finish` reports.
         let _ = self.tx.send(full);
     }
 
     /// Sends the last samples and waits for the thread.
     fn finish(mut self) -> std::result::Result<BodyEnd, BodyError> {
-        if !self.chunk.is_empty() {
+        if self.at > 0 {
             self.send();
         }
         drop(self.tx);
@@ -1017,7 +1028,16 @@ impl Probe for VcdWriter {
     }
 
     fn sample_changes(&mut self, t: u64, values: &[u64], changed: &[u32]) {
-        if self.accepts(t, values.len(), false) {
+        let n = values.len();
+        if changed.len() > n || changed.last().is_some_and(|&i| i as usize >= n) {
+            self.fail(format!(
+                "cycle {t}: a change list of {} positions up to {:?} for {n} values",
+                changed.len(),
+                changed.last()
+            ));
+            return;
+        }
+        if self.accepts(t, n, false) {
             self.queue(t, values, changed);
         }
     }
