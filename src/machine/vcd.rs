@@ -663,8 +663,9 @@ struct Slot {
 /// `Machine::run` as the probe, then call [`VcdWriter::finish`].
 ///
 /// Each sample is one flat value array (position = signal id, fixed by the layout the probe
-/// declared once). The samples are queued to the waveform's thread (`SampleStream`), which
-/// compares each with the previous one and writes the changes: a VCD's lines formatted by
+/// declared once) with the positions that changed (`sample_changes`; `sample`'s whole arrays
+/// are compared with the last here). The changes are queued to the waveform's thread
+/// (`SampleStream`), which writes them: a VCD's lines formatted by
 /// hand into a block written out whole (`VcdBody`), an FST's through `fst-writer` (`FstBody`).
 pub struct VcdWriter {
     path: PathBuf,
