@@ -264,11 +264,17 @@ fn the_watchdog_stops_a_run_that_makes_no_progress() {
     assert!(err.contains("memory:"), "{err}");
 }
 
-/// Records every probed value that changed, with its cycle.
+/// Records every probed value that changed, with its cycle, and checks the machine's change
+/// list of every sample against the values (`zeros_before`: the values of the last sample,
+/// zeros before the first, as the list's contract says).
 struct ChangeLog {
     names: Vec<String>,
     last: Option<Vec<u64>>,
     changes: Vec<String>,
+    zeros_before: Vec<u64>,
+    /// Samples whose change list was checked, and the positions listed in all.
+    lists: u64,
+    listed: u64,
 }
 
 impl ChangeLog {
@@ -277,6 +283,9 @@ impl ChangeLog {
             names: Vec::new(),
             last: None,
             changes: Vec::new(),
+            zeros_before: Vec::new(),
+            lists: 0,
+            listed: 0,
         }
     }
 }
@@ -287,6 +296,19 @@ impl shellsim_hw::trace::Probe for ChangeLog {
             .iter()
             .map(|d| format!("{}.{}", d.scope, d.name))
             .collect();
+    }
+    fn sample_changes(&mut self, t: u64, values: &[u64], changed: &[u32]) {
+        if self.zeros_before.is_empty() {
+            self.zeros_before = vec![0; values.len()];
+        }
+        let want: Vec<u32> = (0..values.len() as u32)
+            .filter(|&i| values[i as usize] != self.zeros_before[i as usize])
+            .collect();
+        assert_eq!(changed, &want[..], "cycle {t}: the change list");
+        self.zeros_before.copy_from_slice(values);
+        self.lists += 1;
+        self.listed += changed.len() as u64;
+        self.sample(t, values);
     }
     fn sample(&mut self, t: u64, values: &[u64]) {
         let last = self
@@ -316,6 +338,12 @@ fn waveforms_are_the_same_with_and_without_the_cycle_jump() {
             let mut log = ChangeLog::new();
             let out = run(&scene, Path::new("scene1.json"), &c, &spec, Some(&mut log)).unwrap();
             assert_eq!(out.stats.skipped_cycles > 0, jump);
+            assert!(
+                log.lists > 100 && log.listed > 1000,
+                "{} {}",
+                log.lists,
+                log.listed
+            );
             log.changes
         })
         .collect();
@@ -478,6 +506,12 @@ fn a_layout_past_the_probes_fill_array_reports_every_signal() {
     )
     .unwrap();
     assert!(log.names.len() > 4096, "{} signals", log.names.len());
+    assert!(
+        log.lists > 100 && log.listed > 1000,
+        "{} {}",
+        log.lists,
+        log.listed
+    );
     let last = log.last.as_ref().expect("sampled");
     let value = |name: &str| {
         let i = log.names.iter().position(|n| n == name).expect(name);
