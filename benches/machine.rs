@@ -1,6 +1,6 @@
 //! Simulation rate of the paper machine on scene2 (simulated cycles per wall second), and
-//! the cost of cycle-level control over the untimed model doing the same number of
-//! (ray, patch) jobs.
+//! the cost of cycle-level control over the untimed datapath doing the same jobs: the
+//! same number of (ray, patch) pairs, and the very pairs the machine issued.
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use shellsim::fixed::records::HostFixed;
@@ -9,6 +9,7 @@ use shellsim::Scene;
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::datapath::intersect;
 use shellsim_hw::machine::TickOrder;
+use shellsim_hw::trace::{Probe, SignalDecl};
 use shellsim_hw::Exceptions;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -126,6 +127,47 @@ fn bench(c: &mut Criterion) {
 /// stops at the nearest hit, so it tests far fewer (ray, patch) pairs than the machine);
 /// `untimed_same_jobs` runs the datapath (`intersect`) on as many (ray, patch) pairs as the
 /// machine's ICUs do — each ray against patches in id order, wrapping.
+/// The jobs the machine's ICUs took, in the order each entered an ICU's first stage: the
+/// stage's (ray, patch) each cycle it holds a job, a job held over a stall seen once (the
+/// machine issues each (ray, patch) pair once).
+#[derive(Default)]
+struct IssuedJobs {
+    /// Per ICU: the positions of its first stage's valid, ray and patch.
+    stage0: Vec<[usize; 3]>,
+    /// Per ICU: the job its first stage held at the last sample.
+    held: Vec<Option<(u32, u32)>>,
+    jobs: Vec<(u32, u32)>,
+}
+
+impl Probe for IssuedJobs {
+    fn declare(&mut self, signals: &[SignalDecl]) {
+        let at = |scope: &str, name: &str| {
+            signals
+                .iter()
+                .position(|d| d.scope == scope && d.name == name)
+        };
+        for c in 0.. {
+            let scope = format!("machine.cluster_{c}.icu.stage_0");
+            let (Some(v), Some(r), Some(p)) =
+                (at(&scope, "valid"), at(&scope, "ray"), at(&scope, "patch"))
+            else {
+                break;
+            };
+            self.stage0.push([v, r, p]);
+        }
+        self.held = vec![None; self.stage0.len()];
+    }
+    fn sample(&mut self, _: u64, values: &[u64]) {
+        for (k, &[v, r, p]) in self.stage0.iter().enumerate() {
+            let now = (values[v] == 1).then_some((values[r] as u32, values[p] as u32));
+            if now.is_some() && now != self.held[k] {
+                self.jobs.push(now.expect("valid"));
+            }
+            self.held[k] = now;
+        }
+    }
+}
+
 fn cycle_vs_untimed(c: &mut Criterion) {
     let (path, scene, cfg, hw) = scene2();
     let spec = RunSpec {
@@ -136,7 +178,8 @@ fn cycle_vs_untimed(c: &mut Criterion) {
     let prep = shellsim::machine::run::prepare(&scene, &path, &cfg, &spec).unwrap();
     let mut m =
         shellsim_hw::machine::Machine::new(hw, &prep.host.scene, &prep.records, &prep.sectors, 0);
-    m.run(TickOrder::Forward, None).unwrap();
+    let mut issued = IssuedJobs::default();
+    m.run(TickOrder::Forward, Some(&mut issued)).unwrap();
     let jobs: u64 = m
         .clusters
         .iter()
@@ -149,6 +192,8 @@ fn cycle_vs_untimed(c: &mut Criterion) {
         prep.records.len(),
         jobs
     );
+    // Two jobs in a row of one ICU with the same pair would be one here: the count says none.
+    assert_eq!(issued.jobs.len() as u64, jobs, "every issued job seen once");
     let fs = &prep.host.scene;
     let f = fs.formats;
     let mut g = c.benchmark_group("cycle_vs_untimed");
@@ -187,6 +232,16 @@ fn cycle_vs_untimed(c: &mut Criterion) {
                     done += 1;
                 }
             }
+            black_box(n)
+        })
+    });
+    g.bench_function("untimed_issued_jobs", |b| {
+        b.iter(|| {
+            let mut exc = Exceptions::default();
+            let n = issued.jobs.iter().fold(0u64, |n, &(ray, patch)| {
+                let (r, p) = (&prep.records[ray as usize], &fs.patches[patch as usize]);
+                n + intersect(r, p, &f, &mut exc).is_some() as u64
+            });
             black_box(n)
         })
     });
