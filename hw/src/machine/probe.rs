@@ -175,7 +175,8 @@ fill_sink!(FillChecked);
 
 /// Lists the flagged positions of `flags` in `out`, ascending, and clears their flags; returns
 /// how many. Eight flags are read as one word, so the unflagged (some 85 % of a sample's
-/// values) cost a test per eight. `out` holds a position per flag that can be set.
+/// values) cost a test per eight; a flagged word's eight 0/1 bytes are gathered into eight
+/// bits by one multiply ([`flag_bits`]). `out` holds a position per flag that can be set.
 fn list_flagged(flags: &mut [u8], out: &mut [u32]) -> usize {
     let mut n = 0;
     for (w, eight) in flags.chunks_exact_mut(8).enumerate() {
@@ -183,16 +184,22 @@ fn list_flagged(flags: &mut [u8], out: &mut [u32]) -> usize {
         if word == 0 {
             continue;
         }
-        let mut m = word;
+        let mut m = flag_bits(word);
         while m != 0 {
-            let b = m.trailing_zeros() / 8;
-            out[n] = (8 * w) as u32 + b;
+            out[n] = (8 * w) as u32 + m.trailing_zeros();
             n += 1;
-            m &= !(0xFF << (8 * b));
+            m &= m - 1;
         }
         eight.fill(0);
     }
     n
+}
+
+/// Bit k set when byte k of `word` (little-endian; each byte 0 or 1) is 1: the multiply
+/// moves byte k's bit to bit 56 + k, and no two bytes' bits meet there or carry into it.
+#[inline(always)]
+fn flag_bits(word: u64) -> u32 {
+    (word.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
 }
 
 impl Machine<'_> {
@@ -423,5 +430,31 @@ impl Scopes {
             icu_idle: Vec::new(),
             filled: false,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flag_bits_gathers_every_pattern_of_eight_flags() {
+        for pattern in 0u32..256 {
+            let word = (0..8).fold(0u64, |w, k| w | (((pattern >> k) & 1) as u64) << (8 * k));
+            assert_eq!(flag_bits(word), pattern, "{word:#018x}");
+        }
+    }
+
+    #[test]
+    fn the_flagged_positions_are_listed_in_order_and_their_flags_cleared() {
+        let mut flags = vec![0u8; 64];
+        let set = [0usize, 7, 8, 13, 40, 41, 42, 63];
+        for &i in &set {
+            flags[i] = 1;
+        }
+        let mut out = vec![0u32; 64];
+        let n = list_flagged(&mut flags, &mut out);
+        assert_eq!(&out[..n], set.map(|i| i as u32));
+        assert!(flags.iter().all(|&f| f == 0));
     }
 }
