@@ -160,8 +160,8 @@ impl Probe for IssuedJobs {
     fn sample(&mut self, _: u64, values: &[u64]) {
         for (k, &[v, r, p]) in self.stage0.iter().enumerate() {
             let now = (values[v] == 1).then_some((values[r] as u32, values[p] as u32));
-            if now.is_some() && now != self.held[k] {
-                self.jobs.push(now.expect("valid"));
+            if let Some(job) = now.filter(|_| now != self.held[k]) {
+                self.jobs.push(job);
             }
             self.held[k] = now;
         }
