@@ -338,18 +338,61 @@ mod tests {
         (rays, patches, f)
     }
 
+    /// An ICU's links in a test: its job input, its one result link and the remote link.
+    struct Wires {
+        input: Link<Job>,
+        results: Vec<Link<JobResult>>,
+        remote: Link<RemoteResult>,
+    }
+
+    impl Wires {
+        /// Unwired links, two entries deep.
+        fn new() -> Self {
+            Wires {
+                input: Link::new(2),
+                results: vec![Link::new(2)],
+                remote: Link::new(2),
+            }
+        }
+
+        /// One cycle of `icu` on these links (cluster 0), without the edge.
+        fn tick(
+            &mut self,
+            icu: &mut Icu,
+            rays: &[RayRecord],
+            patches: &[PatchRecord],
+            f: &Formats,
+        ) {
+            let mut io = IcuPorts {
+                cluster: 0,
+                input: &mut self.input,
+                results: &mut self.results,
+                remote: &mut self.remote,
+            };
+            icu.tick(&mut io, rays, patches, f);
+        }
+
+        /// The clock edge of every link.
+        fn commit(&mut self) {
+            self.input.commit();
+            self.results[0].commit();
+            self.remote.commit();
+        }
+    }
+
     #[test]
     fn back_pressure_never_loses_a_result_and_keeps_order() {
         let (rays, patches, f) = records();
         let mut icu = Icu::new(4);
-        let mut input: Link<Job> = Link::new(2).wired(UnitId::RayBuffer(0), UnitId::Icu(0));
-        let mut results: Vec<Link<JobResult>> =
-            vec![Link::new(2).wired(UnitId::Icu(0), UnitId::Ctu(0, 0))];
-        let mut remote: Link<RemoteResult> = Link::new(2);
+        let mut w = Wires {
+            input: Link::new(2).wired(UnitId::RayBuffer(0), UnitId::Icu(0)),
+            results: vec![Link::new(2).wired(UnitId::Icu(0), UnitId::Ctu(0, 0))],
+            remote: Link::new(2),
+        };
         let n = 24u32;
         let (mut sent, mut got) = (0u32, vec![]);
         for cycle in 0..400 {
-            if sent < n && input.can_push() {
+            if sent < n && w.input.can_push() {
                 let job = Job {
                     ray: sent % 4,
                     slot: sent,
@@ -357,24 +400,16 @@ mod tests {
                     ctu: 0,
                     owner: 0,
                 };
-                input.push(UnitId::RayBuffer(0), job);
+                w.input.push(UnitId::RayBuffer(0), job);
                 sent += 1;
             }
-            let mut io = IcuPorts {
-                cluster: 0,
-                input: &mut input,
-                results: &mut results,
-                remote: &mut remote,
-            };
-            icu.tick(&mut io, &rays, &patches, &f);
+            w.tick(&mut icu, &rays, &patches, &f);
             // The CTU holds its result link not-ready for 150 cycles, then takes one result
             // every third cycle.
-            if cycle >= 150 && cycle % 3 == 0 && results[0].peek().is_some() {
-                got.push(results[0].pop(UnitId::Ctu(0, 0)));
+            if cycle >= 150 && cycle % 3 == 0 && w.results[0].peek().is_some() {
+                got.push(w.results[0].pop(UnitId::Ctu(0, 0)));
             }
-            input.commit();
-            results[0].commit();
-            remote.commit();
+            w.commit();
         }
         assert_eq!(
             got.iter().map(|r| r.slot).collect::<Vec<_>>(),
@@ -389,13 +424,11 @@ mod tests {
     fn the_stage_walk_gives_every_stage_as_stage_job_does_through_the_rings_wraps() {
         let (rays, patches, f) = records();
         let mut icu = Icu::new(4);
-        let mut input: Link<Job> = Link::new(2);
-        let mut results: Vec<Link<JobResult>> = vec![Link::new(2)];
-        let mut remote: Link<RemoteResult> = Link::new(2);
+        let mut w = Wires::new();
         let (mut valid_seen, mut empty_seen) = (0, 0);
         for cycle in 0..300u32 {
             // Jobs in bursts, results taken every other cycle: stages fill and empty.
-            if cycle % 40 < 25 && input.can_push() {
+            if cycle % 40 < 25 && w.input.can_push() {
                 let job = Job {
                     ray: cycle % 4,
                     slot: cycle,
@@ -403,21 +436,13 @@ mod tests {
                     ctu: 0,
                     owner: 0,
                 };
-                input.push(UnitId::RayBuffer(0), job);
+                w.input.push(UnitId::RayBuffer(0), job);
             }
-            let mut io = IcuPorts {
-                cluster: 0,
-                input: &mut input,
-                results: &mut results,
-                remote: &mut remote,
-            };
-            icu.tick(&mut io, &rays, &patches, &f);
-            if cycle % 2 == 0 && results[0].peek().is_some() {
-                results[0].pop(UnitId::Ctu(0, 0));
+            w.tick(&mut icu, &rays, &patches, &f);
+            if cycle % 2 == 0 && w.results[0].peek().is_some() {
+                w.results[0].pop(UnitId::Ctu(0, 0));
             }
-            input.commit();
-            results[0].commit();
-            remote.commit();
+            w.commit();
             let mut walked = Vec::new();
             icu.for_each_stage(|v, r, p, t| walked.push((v, r, p, t)));
             let by_stage: Vec<_> = (0..icu.depth())
@@ -441,10 +466,8 @@ mod tests {
     fn another_clusters_job_goes_home_over_the_remote_link() {
         let (rays, patches, f) = records();
         let mut icu = Icu::new(4);
-        let mut input: Link<Job> = Link::new(2);
-        let mut results: Vec<Link<JobResult>> = vec![Link::new(2)];
-        let mut remote: Link<RemoteResult> = Link::new(2);
-        input.push(
+        let mut w = Wires::new();
+        w.input.push(
             UnitId::RayBuffer(0),
             Job {
                 ray: 1,
@@ -454,26 +477,18 @@ mod tests {
                 owner: 3,
             },
         );
-        input.commit();
+        w.input.commit();
         let mut out = None;
         for _ in 0..20 {
-            let mut io = IcuPorts {
-                cluster: 0,
-                input: &mut input,
-                results: &mut results,
-                remote: &mut remote,
-            };
-            icu.tick(&mut io, &rays, &patches, &f);
-            input.commit();
-            results[0].commit();
-            remote.commit();
-            if remote.peek().is_some() {
-                out = Some(remote.pop(UnitId::Balancer));
+            w.tick(&mut icu, &rays, &patches, &f);
+            w.commit();
+            if w.remote.peek().is_some() {
+                out = Some(w.remote.pop(UnitId::Balancer));
             }
         }
         let r = out.expect("the result left");
         assert_eq!((r.owner, r.ctu, r.result.slot), (3, 1, 5));
-        assert!(results[0].is_empty() && results[0].transfers == 0);
+        assert!(w.results[0].is_empty() && w.results[0].transfers == 0);
         assert_eq!(icu.stats.remote_results_out, 1);
     }
 
@@ -487,9 +502,7 @@ mod tests {
         cycles: usize,
         mut at: impl FnMut(&Icu, usize),
     ) -> (Vec<Exceptions>, Option<JobResult>) {
-        let mut input: Link<Job> = Link::new(2);
-        let mut results: Vec<Link<JobResult>> = vec![Link::new(2)];
-        let mut remote: Link<RemoteResult> = Link::new(2);
+        let mut w = Wires::new();
         let job = Job {
             ray: 0,
             slot: 0,
@@ -497,24 +510,17 @@ mod tests {
             ctu: 0,
             owner: 0,
         };
-        input.push(UnitId::RayBuffer(0), job);
-        input.commit();
+        w.input.push(UnitId::RayBuffer(0), job);
+        w.input.commit();
         let (mut seen, mut out) = (vec![], None);
         for cycle in 0..cycles {
-            let mut io = IcuPorts {
-                cluster: 0,
-                input: &mut input,
-                results: &mut results,
-                remote: &mut remote,
-            };
-            icu.tick(&mut io, rays, patches, f);
-            input.commit();
-            results[0].commit();
+            w.tick(icu, rays, patches, f);
+            w.commit();
             at(icu, cycle);
             seen.push(icu.exceptions);
-            if results[0].peek().is_some() {
-                out = Some(results[0].pop(UnitId::Ctu(0, 0)));
-                results[0].commit();
+            if w.results[0].peek().is_some() {
+                out = Some(w.results[0].pop(UnitId::Ctu(0, 0)));
+                w.results[0].commit();
             }
         }
         (seen, out)
