@@ -140,6 +140,7 @@ macro_rules! links {
             }
 
             /// Reports the links of `section` to `p`, family by family in table order.
+            #[inline(always)]
             pub(super) fn probe<S: Sink>(&self, p: &mut S, section: Section) {
                 $(
                     let want: Section = $section;
