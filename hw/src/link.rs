@@ -79,6 +79,27 @@ impl UnitId {
     }
 }
 
+/// A unit's [`UnitId::code`], computed once: what a push or pop names (rule 7). A unit on
+/// the hot path keeps its own, so the check is one compare with a value in a register (the
+/// code of a `UnitId` read from memory is a jump table on its kind, which cost more than the
+/// handshake it guards). Any `UnitId` converts to it, so tests name ends as `UnitId`s.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct UnitCode(u64);
+
+impl From<UnitId> for UnitCode {
+    #[inline(always)]
+    fn from(u: UnitId) -> Self {
+        UnitCode(u.code())
+    }
+}
+
+impl UnitCode {
+    /// The unit it stands for.
+    pub fn unit(self) -> UnitId {
+        UnitId::from_code(self.0).expect("a code made from a unit")
+    }
+}
+
 /// A word of touch bits shared by up to 64 links: each link raises its own bit whenever a
 /// push, pop or take-back stages something, so the word's owner (the machine's link table)
 /// commits only the links whose bits are up ([`TouchWord::take`]) instead of testing every
@@ -144,9 +165,8 @@ pub struct Link<T> {
 
 /// Rule 7: records `by` as the link's `end` on first use, else checks it is the same unit.
 #[inline(always)]
-fn one_end(end: &mut u64, by: UnitId, side: &'static str) {
-    let code = by.code();
-    if *end != code {
+fn one_end(end: &mut u64, by: UnitCode, side: &'static str) {
+    if *end != by.0 {
         first_or_wrong_end(end, by, side);
     }
 }
@@ -155,7 +175,8 @@ fn one_end(end: &mut u64, by: UnitId, side: &'static str) {
 /// release builds too).
 #[cold]
 #[inline(never)]
-fn first_or_wrong_end(end: &mut u64, by: UnitId, side: &'static str) {
+fn first_or_wrong_end(end: &mut u64, by: UnitCode, side: &'static str) {
+    let by = by.unit();
     match UnitId::from_code(*end) {
         Some(u) => panic!("rule 7: {by:?} acts as the {side} of a link whose {side} is {u:?}"),
         None => *end = by.code(),
@@ -251,8 +272,8 @@ impl<T: Clone> Link<T> {
 
     /// Stages a push by `by` (rules 1 and 7). Panics if the rules were broken — a model bug.
     #[inline(always)]
-    pub fn push(&mut self, by: UnitId, x: T) {
-        one_end(&mut self.producer, by, "producer");
+    pub fn push(&mut self, by: impl Into<UnitCode>, x: T) {
+        one_end(&mut self.producer, by.into(), "producer");
         assert!(
             self.can_push(),
             "push without ready or more pushes than ports in a cycle"
@@ -276,8 +297,8 @@ impl<T: Clone> Link<T> {
 
     /// Stages popping the front by `by` (rules 3 and 7).
     #[inline(always)]
-    pub fn pop(&mut self, by: UnitId) -> T {
-        one_end(&mut self.consumer, by, "consumer");
+    pub fn pop(&mut self, by: impl Into<UnitCode>) -> T {
+        one_end(&mut self.consumer, by.into(), "consumer");
         assert!(self.peekable, "pop without valid or two pops in a cycle");
         self.peekable = false;
         self.staged_pop = true;
@@ -287,8 +308,8 @@ impl<T: Clone> Link<T> {
 
     /// Stages taking `k` items from the back (rule 6) and returns them, oldest first. The
     /// splitter is the link's producer (it takes back what it queued; rule 7).
-    pub fn take_back(&mut self, by: UnitId, k: usize) -> Vec<T> {
-        one_end(&mut self.producer, by, "producer");
+    pub fn take_back(&mut self, by: impl Into<UnitCode>, k: usize) -> Vec<T> {
+        one_end(&mut self.producer, by.into(), "producer");
         let len = self.len;
         assert!(self.staged_take_back == 0 && k < len.max(1), "rule 6");
         self.staged_take_back = k;

@@ -26,7 +26,7 @@ use crate::datapath::dda::FixedDda;
 use crate::datapath::model::STOP_SLACK_T_LSB;
 use crate::datapath::record::{CellTable, RayRecord};
 use crate::datapath::{compare, FixedHit};
-use crate::link::{Link, UnitId};
+use crate::link::{Link, UnitCode, UnitId};
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, PatchArrival};
 use crate::units::ray_pool::RayList;
 use bitvec::prelude::*;
@@ -196,7 +196,7 @@ pub struct CtuPorts<'a> {
 pub struct Ctu {
     p: CtuParams,
     /// Its end of its links (rule 7).
-    me: UnitId,
+    me: UnitCode,
     /// The sector is finished ([`Ctu::done`]) with no load pending: no result and no patch
     /// can reach it any more, so every later cycle is an idle one in DONE.
     finished: bool,
@@ -261,7 +261,7 @@ impl Ctu {
             .collect();
         Ctu {
             p,
-            me: UnitId::Ctu(p.cluster as usize, p.local as usize),
+            me: UnitId::Ctu(p.cluster as usize, p.local as usize).into(),
             finished: false,
             state: CtuState::Idle,
             remaining: (0..slots.len() as u32).collect(),

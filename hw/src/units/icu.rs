@@ -14,7 +14,7 @@
 use crate::config::Formats;
 use crate::datapath::record::{PatchRecord, RayRecord};
 use crate::datapath::{self, Edges, Exceptions, Interpolated, RaySpace, Translated};
-use crate::link::{Link, UnitId};
+use crate::link::{Link, UnitCode, UnitId};
 use crate::msg::{Job, JobResult, RemoteResult};
 
 /// What a stage register holds besides the job.
@@ -238,7 +238,7 @@ impl Icu {
             remote,
         } = io;
         let cluster = *cluster;
-        let me = UnitId::Icu(cluster as usize);
+        let me = UnitCode::from(UnitId::Icu(cluster as usize));
         let n = self.slots.len();
         let last = if self.base == 0 { n - 1 } else { self.base - 1 };
         if self.slots[last].valid {

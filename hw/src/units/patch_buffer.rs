@@ -1,7 +1,7 @@
 //! The patch buffer: a cluster's bounded store of patch records delivered by the global
 //! memory, handed one per cycle, in arrival order, to the CTU that asked for each.
 
-use crate::link::{Link, UnitId};
+use crate::link::{Link, UnitCode, UnitId};
 use crate::msg::PatchArrival;
 
 /// Patch-buffer counters.
@@ -45,7 +45,7 @@ impl PatchBuffer {
     /// A cycle with a record in the store.
     #[inline(always)]
     fn tick_active(&mut self, to_ctus: &mut [Link<PatchArrival>]) {
-        let me = UnitId::PatchBuffer(self.cluster);
+        let me = UnitCode::from(UnitId::PatchBuffer(self.cluster));
         let occ = self.store.len() as u64;
         self.stats.occupancy_sum += occ;
         self.stats.max_occupancy = self.stats.max_occupancy.max(occ);

@@ -10,7 +10,7 @@
 //! through a two-job queue. A split order cuts a work-item of up to N jobs off the back of
 //! the last descriptor (never the front descriptor's last job) and sends it as a descriptor.
 
-use crate::link::{Link, UnitId};
+use crate::link::{Link, UnitCode, UnitId};
 use crate::msg::{Descriptor, Job, SplitOrder, WorkItem};
 use crate::units::ray_pool::RayList;
 use std::collections::VecDeque;
@@ -120,7 +120,7 @@ impl RayBuffer {
     /// expand one job of the front descriptor into the queue, take one descriptor from the
     /// next input (round-robin) with one waiting while there is room.
     pub fn tick_bundle(&mut self, cluster: u16, io: &mut BundlePorts) {
-        let me = UnitId::RayBuffer(cluster as usize);
+        let me = UnitCode::from(UnitId::RayBuffer(cluster as usize));
         let occ = self.queue.len() as u64 + self.desc_jobs;
         self.stats.occupancy_sum += occ;
         self.stats.max_occupancy = self.stats.max_occupancy.max(occ);
@@ -244,7 +244,7 @@ impl RayBuffer {
             orders,
             out,
         } = io;
-        let me = UnitId::RayBuffer(cluster as usize);
+        let me = UnitCode::from(UnitId::RayBuffer(cluster as usize));
         if !orders.is_empty() && out.can_push() {
             let o = orders.pop(me);
             let k = (o.jobs as usize).min(self.queue.len().saturating_sub(1));
@@ -293,7 +293,7 @@ impl RayBuffer {
     /// the queue is full: it stays full for the rest of the cycle, so the walk ends. The
     /// buffer is each input's one consumer, so a valid input shows its front (`peek`).
     #[inline(always)]
-    fn take(&mut self, me: UnitId, link: &mut Link<Job>, i: usize, k: usize) -> bool {
+    fn take(&mut self, me: UnitCode, link: &mut Link<Job>, i: usize, k: usize) -> bool {
         if !link.valid() {
             return true;
         }
