@@ -10,7 +10,7 @@
 //! file's bytes do not depend on the timing. Sections are cut every
 //! [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
 
-use super::vcd::{Body, BodyEnd, BodyError, Clock, ThreadBody, Window};
+use super::vcd::{pairs, Body, BodyEnd, BodyError, Clock, ThreadBody, Window};
 use fst_writer::{FstBodyWriter, FstCompression, FstSignalId};
 use std::fs::File;
 use std::io::{self, BufWriter};
@@ -181,8 +181,7 @@ impl Body for FstBody {
     /// Takes the sample's changes and writes time `t` and the changed declared values
     /// (nothing when none is declared); cuts a section past [`FST_FLUSH_BYTES`].
     fn write_changes(&mut self, t: u64, changes: &[u64]) -> io::Result<()> {
-        for c in changes.chunks_exact(2) {
-            let (i, v) = (c[0] as usize, c[1]);
+        for (i, v) in pairs(changes) {
             self.prev[i] = v;
             self.take(i, v);
         }

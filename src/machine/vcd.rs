@@ -472,11 +472,18 @@ pub(crate) trait Body {
     }
 }
 
-/// Sets the values at the positions of `changes` (position and value in turn).
+/// A sample record's changes as (position, value): the words `SampleStream::push` wrote,
+/// position and value in turn.
+#[inline]
+pub(crate) fn pairs(changes: &[u64]) -> impl Iterator<Item = (usize, u64)> + '_ {
+    changes.chunks_exact(2).map(|c| (c[0] as usize, c[1]))
+}
+
+/// Sets the values at the positions of `changes` (a sample record's, [`pairs`]).
 #[inline]
 pub(crate) fn apply(values: &mut [u64], changes: &[u64]) {
-    for c in changes.chunks_exact(2) {
-        values[c[0] as usize] = c[1];
+    for (i, v) in pairs(changes) {
+        values[i] = v;
     }
 }
 
@@ -620,8 +627,7 @@ impl Body for VcdBody {
     /// Each change taken, and the declared ones' lines after `#t`.
     fn write_changes(&mut self, t: u64, changes: &[u64]) -> io::Result<()> {
         let mut stamped = false;
-        for c in changes.chunks_exact(2) {
-            let (i, v) = (c[0] as usize, c[1]);
+        for (i, v) in pairs(changes) {
             self.prev[i] = v;
             if self.slots[i].declared {
                 if !stamped {
@@ -1458,15 +1464,21 @@ mod tests {
         assert!(text.ends_with("$enddefinitions $end\n"), "{text}");
     }
 
-    #[test]
-    fn an_unfinished_writer_leaves_nothing() {
+    /// A writer to `x.vcd` in a new directory, one 8-bit signal declared and sampled once
+    /// (value 1 at cycle 0); the directory, the path and the writer.
+    fn one_signal_writer() -> (tempfile::TempDir, PathBuf, VcdWriter) {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("x.vcd");
-        {
-            let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
-            w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
-            w.sample(0, &[1]);
-        }
+        let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
+        w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
+        w.sample(0, &[1]);
+        (dir, p, w)
+    }
+
+    #[test]
+    fn an_unfinished_writer_leaves_nothing() {
+        let (dir, _, w) = one_signal_writer();
+        drop(w);
         assert_eq!(dir.path().read_dir().unwrap().count(), 0);
     }
 
@@ -1504,11 +1516,7 @@ mod tests {
 
     #[test]
     fn a_sample_of_another_length_is_an_error() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("x.vcd");
-        let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
-        w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
-        w.sample(0, &[1]);
+        let (_dir, p, mut w) = one_signal_writer();
         w.sample(1, &[1, 2]);
         assert!(w.finish().is_err());
         assert!(!p.exists());
@@ -1575,11 +1583,7 @@ mod tests {
 
     #[test]
     fn a_writer_taking_whole_samples_and_change_lists_is_an_error() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("x.vcd");
-        let mut w = VcdWriter::create(&p, VcdOptions::default()).unwrap();
-        w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
-        w.sample(0, &[1]);
+        let (_dir, p, mut w) = one_signal_writer();
         w.sample_changes(1, &[2], &[0]);
         let e = w.finish().unwrap_err().to_string();
         assert!(e.contains("both whole samples and change lists"), "{e}");

@@ -364,7 +364,7 @@ impl Machine<'_> {
             // Four signals a stage (the count `skip_idle_icu` is told), all zero when empty.
             let depth = cl.icu.depth();
             if !p.skip_idle_icu(c, cl.icu.is_empty(), 4 * depth) {
-                // t is shown in the result stage only (`stage_job` gives it there alone).
+                // t is shown in the result stage only (`for_each_stage` gives it there alone).
                 let mut stages = cs.stages.iter();
                 cl.icu.for_each_stage(|valid, ray, patch, t| {
                     let ss = stages.next().map_or("", String::as_str);
