@@ -5,7 +5,9 @@
 //! value changed (each put flags whether it changed the value it replaces, without a branch
 //! or a count carried from put to put; one pass over the flags then lists them) — no string is
 //! touched per cycle and nothing is allocated. The array keeps the last sample's values, so
-//! an empty ICU's stages (all zero) are skipped when it was empty at the last sample too.
+//! what cannot have changed is not put again: an empty ICU's stages (all zero) and a finished
+//! CTU's signals (final) when so at the last sample too, a link no edge touched, a stage's t
+//! before the result stage (always zero).
 
 use super::links::{probe_link, Section};
 use super::Machine;
@@ -20,12 +22,18 @@ pub(super) trait Sink {
     fn text(&mut self, scope: &str, name: &'static str, names: &'static [&'static str], index: u64);
     /// A signed fixed-point value (raw) with `frac` fractional bits in `width` bits.
     fn fixed(&mut self, scope: &str, name: &'static str, width: u32, frac: u32, raw: i64);
-    /// The next `n` signals are cluster `c`'s ICU stages, all zero while `idle` (the ICU is
-    /// empty): a filler skips them, leaving them as they are, when the ICU was empty at the
-    /// last sample too. True when skipped (the walk then reports none of them).
-    fn skip_idle_icu(&mut self, c: usize, idle: bool, n: usize) -> bool {
-        let _ = (c, idle, n);
+    /// The next `n` signals are unit `u`'s (its number among the units the walk asks this
+    /// of: see [`quiet_units`]), unchanging while `quiet` (an empty ICU's stages, all zero; a
+    /// finished CTU's, final): a filler skips them, leaving them as they are, when the unit
+    /// was quiet at the last sample too. True when skipped (the walk then reports none).
+    fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
+        let _ = (u, quiet, n);
         false
+    }
+    /// A fixed-point signal that is zero at every sample (a stage's t before the result
+    /// stage): a filler leaves its value, zero from the start, as it is.
+    fn fixed_zero(&mut self, scope: &str, name: &'static str, width: u32, frac: u32) {
+        self.fixed(scope, name, width, frac, 0);
     }
     /// The next [`LINK_SIGNALS`] signals are a link's, `changed` false when no edge touched
     /// it since the last sample (`Link::take_changed`): a filler skips them, leaving the
@@ -92,8 +100,8 @@ struct Fill<'a> {
     pos: usize,
     /// Per position: 1 when this sample's put changed its value (all zero before the walk).
     flags: &'a mut [u8; FILL_CAP],
-    /// Per cluster: its ICU was empty at the last sample.
-    icu_idle: &'a mut [bool],
+    /// Per unit of [`quiet_units`]: it was quiet at the last sample.
+    quiet: &'a mut [bool],
     /// The array holds a whole earlier sample (unchanged links may be skipped).
     filled_before: bool,
 }
@@ -116,7 +124,7 @@ struct FillChecked<'a> {
     values: &'a mut [u64],
     pos: usize,
     flags: &'a mut [u8],
-    icu_idle: &'a mut [bool],
+    quiet: &'a mut [bool],
     filled_before: bool,
 }
 
@@ -148,12 +156,16 @@ macro_rules! fill_sink {
                 self.put(raw as u64 & mask(width));
             }
             #[inline(always)]
-            fn skip_idle_icu(&mut self, c: usize, idle: bool, n: usize) -> bool {
-                let Some(was) = self.icu_idle.get_mut(c) else {
+            fn fixed_zero(&mut self, _: &str, _: &'static str, _: u32, _: u32) {
+                self.pos += 1;
+            }
+            #[inline(always)]
+            fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
+                let Some(was) = self.quiet.get_mut(u) else {
                     return false;
                 };
-                let skip = idle && *was;
-                *was = idle;
+                let skip = quiet && *was;
+                *was = quiet;
                 if skip {
                     self.pos += n;
                 }
@@ -217,7 +229,7 @@ impl Machine<'_> {
             self.probe_changes = vec![0; n];
             self.scopes = Some(Scopes {
                 signals: n,
-                icu_idle: vec![false; self.clusters.len()],
+                quiet: vec![false; quiet_units(self)],
                 filled: false,
                 ..sc
             });
@@ -226,7 +238,7 @@ impl Machine<'_> {
         let mut values = std::mem::take(&mut self.probe_values);
         let mut flags = std::mem::take(&mut self.probe_flags);
         let mut changes = std::mem::take(&mut self.probe_changes);
-        let mut icu_idle = std::mem::take(&mut sc.icu_idle);
+        let mut quiet = std::mem::take(&mut sc.quiet);
         let n = sc.signals;
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
@@ -238,7 +250,7 @@ impl Machine<'_> {
                     values,
                     pos: 0,
                     flags,
-                    icu_idle: &mut icu_idle,
+                    quiet: &mut quiet,
                     filled_before: sc.filled,
                 };
                 self.walk(&sc, &mut f);
@@ -249,7 +261,7 @@ impl Machine<'_> {
                     values: &mut values,
                     pos: 0,
                     flags: &mut flags,
-                    icu_idle: &mut icu_idle,
+                    quiet: &mut quiet,
                     filled_before: sc.filled,
                 };
                 self.walk(&sc, &mut f);
@@ -263,7 +275,7 @@ impl Machine<'_> {
         self.probe_values = values;
         self.probe_flags = flags;
         self.probe_changes = changes;
-        sc.icu_idle = icu_idle;
+        sc.quiet = quiet;
         self.scopes = Some(sc);
     }
 
@@ -348,12 +360,16 @@ impl Machine<'_> {
             }
             for (j, ctu) in cl.ctus.iter().enumerate() {
                 let s = &cs.ctus[j];
-                p.text(s, "state", CtuState::NAMES, ctu.state.index());
-                p.bits(s, "shell", 16, ctu.shell() as u64);
-                p.bits(s, "remaining_rays", 32, ctu.remaining() as u64);
-                p.bits(s, "outstanding_jobs", 32, ctu.outstanding());
-                p.bits(s, "pending_loads", 16, ctu.pending_loads() as u64);
-                p.bits(s, "jobs_issued", 32, ctu.stats.jobs_issued);
+                // A finished CTU never ticks again: its six signals are final.
+                let u = self.clusters.len() + c * cl.ctus.len() + j;
+                if !p.skip_quiet(u, ctu.is_finished(), 6) {
+                    p.text(s, "state", CtuState::NAMES, ctu.state.index());
+                    p.bits(s, "shell", 16, ctu.shell() as u64);
+                    p.bits(s, "remaining_rays", 32, ctu.remaining() as u64);
+                    p.bits(s, "outstanding_jobs", 32, ctu.outstanding());
+                    p.bits(s, "pending_loads", 16, ctu.pending_loads() as u64);
+                    p.bits(s, "jobs_issued", 32, ctu.stats.jobs_issued);
+                }
                 self.links.probe(p, Section::Ctu(c, j));
                 if bundle {
                     p.bits(s, "descriptors", 32, ctu.stats.descriptors);
@@ -361,9 +377,9 @@ impl Machine<'_> {
                 }
             }
             p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
-            // Four signals a stage (the count `skip_idle_icu` is told), all zero when empty.
+            // Four signals a stage (the count `skip_quiet` is told), all zero when empty.
             let depth = cl.icu.depth();
-            if !p.skip_idle_icu(c, cl.icu.is_empty(), 4 * depth) {
+            if !p.skip_quiet(c, cl.icu.is_empty(), 4 * depth) {
                 // t is shown in the result stage only (`for_each_stage` gives it there alone).
                 let mut stages = cs.stages.iter();
                 cl.icu.for_each_stage(|valid, ray, patch, t| {
@@ -371,11 +387,20 @@ impl Machine<'_> {
                     p.bits(ss, "valid", 1, valid);
                     p.bits(ss, "ray", 32, ray);
                     p.bits(ss, "patch", 24, patch);
-                    p.fixed(ss, "t", t_bits, t_frac, t);
+                    match t {
+                        Some(t) => p.fixed(ss, "t", t_bits, t_frac, t),
+                        None => p.fixed_zero(ss, "t", t_bits, t_frac),
+                    }
                 });
             }
         }
     }
+}
+
+/// Units whose signals the walk skips while they stay quiet ([`Sink::skip_quiet`]): each
+/// cluster's ICU (numbers 0..clusters), then every CTU, cluster-major.
+fn quiet_units(m: &Machine) -> usize {
+    m.clusters.len() + m.clusters.iter().map(|c| c.ctus.len()).sum::<usize>()
 }
 
 /// The dotted scope names of every unit, built once per machine.
@@ -387,8 +412,8 @@ pub(super) struct Scopes {
     clusters: Vec<ClusterScopes>,
     /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
     signals: usize,
-    /// Per cluster: its ICU was empty at the last sample.
-    icu_idle: Vec<bool>,
+    /// Per unit of [`quiet_units`]: it was quiet at the last sample.
+    quiet: Vec<bool>,
     /// The value array holds a whole sample (after the first fill).
     filled: bool,
 }
@@ -427,7 +452,7 @@ impl Scopes {
                 })
                 .collect(),
             signals: 0,
-            icu_idle: Vec::new(),
+            quiet: Vec::new(),
             filled: false,
         }
     }

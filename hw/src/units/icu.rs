@@ -156,22 +156,17 @@ impl Icu {
     }
 
     /// Calls `f` with every stage's waveform values in stage order — valid, ray, patch and
-    /// t (t in the result stage only), all zero for an empty stage — as [`Icu::stage_job`]
+    /// t (`Some` in the result stage only), all zero for an empty stage — as [`Icu::stage_job`]
     /// gives them, walking the ring as its two halves (no division per stage) and masking
     /// instead of branching on each stage's valid bit (the waveform's probe, every sample).
     #[inline]
-    pub fn for_each_stage(&self, mut f: impl FnMut(u64, u64, u64, i64)) {
+    pub fn for_each_stage(&self, mut f: impl FnMut(u64, u64, u64, Option<i64>)) {
         let (wrapped, from_base) = self.slots.split_at(self.base);
         let last = self.slots.len() - 1;
         for (k, r) in from_base.iter().chain(wrapped).enumerate() {
             let m = (r.valid as u64).wrapping_neg();
-            let t = if k == last { r.t.unwrap_or(0) } else { 0 };
-            f(
-                m & 1,
-                m & r.job.ray as u64,
-                m & r.job.patch as u64,
-                m as i64 & t,
-            );
+            let t = (k == last).then(|| m as i64 & r.t.unwrap_or(0));
+            f(m & 1, m & r.job.ray as u64, m & r.job.patch as u64, t);
         }
     }
 
@@ -450,6 +445,8 @@ mod tests {
                     Some((j, t)) => (1, j.ray as u64, j.patch as u64, t.unwrap_or(0)),
                     None => (0, 0, 0, 0),
                 })
+                .enumerate()
+                .map(|(k, (v, r, p, t))| (v, r, p, (k + 1 == icu.depth()).then_some(t)))
                 .collect();
             assert_eq!(walked, by_stage, "cycle {cycle}");
             valid_seen += walked.iter().filter(|w| w.0 == 1).count();
