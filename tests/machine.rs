@@ -528,3 +528,83 @@ fn a_layout_past_the_probes_fill_array_reports_every_signal() {
     }
     assert!(out.stats.jobs > 0);
 }
+
+/// Keeps the last sample's values and, per ICU and stage, the positions of its valid, ray,
+/// patch and t signals and the width of t.
+#[derive(Default)]
+struct StageProbe {
+    values: Vec<u64>,
+    stages: Vec<Vec<[usize; 4]>>,
+    t_width: u32,
+}
+
+impl shellsim_hw::trace::Probe for StageProbe {
+    fn declare(&mut self, signals: &[shellsim_hw::trace::SignalDecl]) {
+        for c in 0.. {
+            let mut icu = Vec::new();
+            for k in 0.. {
+                let scope = format!("machine.cluster_{c}.icu.stage_{k}");
+                let at = |n: &str| signals.iter().position(|d| d.scope == scope && d.name == n);
+                let (Some(v), Some(r), Some(p), Some(t)) =
+                    (at("valid"), at("ray"), at("patch"), at("t"))
+                else {
+                    break;
+                };
+                self.t_width = signals[t].width;
+                icu.push([v, r, p, t]);
+            }
+            if icu.is_empty() {
+                break;
+            }
+            self.stages.push(icu);
+        }
+        self.values = vec![0; signals.len()];
+    }
+    fn sample(&mut self, _: u64, values: &[u64]) {
+        self.values.copy_from_slice(values);
+    }
+}
+
+/// The waveform's ICU stages — moved along the pipeline by the walk itself when the ring
+/// advances — hold at every cycle each stage's job, and the result stage its t, as the ICU
+/// has them (small machine, tiny buffers, balancing on; the machine stepped by hand).
+#[test]
+fn the_waveforms_icu_stages_are_the_icus_own_at_every_cycle() {
+    let mut c = config("small");
+    c.balance.enabled = true;
+    let scene = common::load("scene1.json");
+    let file = common::scene_path("scene1.json");
+    let prep = shellsim::machine::run::prepare(&scene, &file, &c, &spec()).unwrap();
+    let hw = shellsim::config::in_hardware_units(&c, prep.host.scale).unwrap();
+    let mut m =
+        shellsim_hw::machine::Machine::new(hw, &prep.host.scene, &prep.records, &prep.sectors, 0);
+    let mut p = StageProbe::default();
+    let (mut held, mut cycles) = (0u64, 0u64);
+    loop {
+        m.tick(TickOrder::Forward);
+        m.probe(&mut p);
+        assert_eq!(p.stages.len(), m.clusters.len());
+        let t_mask = (1u64 << p.t_width) - 1;
+        for (c, stages) in p.stages.iter().enumerate() {
+            let icu = &m.clusters[c].icu;
+            for (k, &[v, r, pa, t]) in stages.iter().enumerate() {
+                let want = icu.stage_job(k).map_or((0, 0, 0, 0), |(j, t)| {
+                    let t = t.map_or(0, |t| t as u64 & t_mask);
+                    (1, j.ray as u64, j.patch as u64 & 0xFF_FFFF, t)
+                });
+                let got = (p.values[v], p.values[r], p.values[pa], p.values[t]);
+                assert_eq!(got, want, "cycle {}: cluster {c} stage {k}", m.cycle);
+                held += got.0;
+            }
+        }
+        cycles += 1;
+        if m.done() {
+            break;
+        }
+        m.cycle += 1;
+    }
+    assert!(
+        cycles > 1000 && held > 1000,
+        "{cycles} cycles, {held} stage-cycles held"
+    );
+}

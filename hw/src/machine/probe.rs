@@ -35,6 +35,28 @@ pub(super) trait Sink {
     fn fixed_zero(&mut self, scope: &str, name: &'static str, width: u32, frac: u32) {
         self.fixed(scope, name, width, frac, 0);
     }
+    /// Cluster `c`'s ICU stages, next: `n` signals, `stride` a stage, the first `width` of
+    /// each moving on to the next stage when the pipeline advances — which it did since the
+    /// last sample exactly when its ring's `position` moved (one cycle apart: a cycle jump
+    /// needs every ICU empty). A filler holding the last sample's values does the shift
+    /// itself (each later stage takes the stage before it; [`Shift::Moved`]: the walk then
+    /// reports stage 0 and the result stage's t, [`Sink::derived`] the rest) or, the ring
+    /// unmoved, skips them all ([`Shift::Held`]: a stall changes nothing).
+    fn shift_stages(
+        &mut self,
+        c: usize,
+        position: usize,
+        stride: usize,
+        width: usize,
+        n: usize,
+    ) -> Shift {
+        let _ = (c, position, stride, width, n);
+        Shift::Walk
+    }
+    /// The next `n` signals were set by [`Sink::shift_stages`]: not reported.
+    fn derived(&mut self, n: usize) {
+        let _ = n;
+    }
     /// The next [`LINK_SIGNALS`] signals are a link's, `changed` false when no edge touched
     /// it since the last sample (`Link::take_changed`): a filler skips them, leaving the
     /// last sample's values, once it has filled the array at least once. True when skipped.
@@ -42,6 +64,17 @@ pub(super) trait Sink {
         let _ = changed;
         false
     }
+}
+
+/// What [`Sink::shift_stages`] did with an ICU's stages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Shift {
+    /// Nothing: the walk reports every stage.
+    Walk,
+    /// The ring did not move: every stage as it was, all skipped.
+    Held,
+    /// The later stages took the stages before them: the walk reports stage 0 and t.
+    Moved,
 }
 
 /// Signals a link shows (`links::probe_link`): valid, ready, occupancy, transfers.
@@ -102,11 +135,22 @@ struct Fill<'a> {
     flags: &'a mut [u8; FILL_CAP],
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
     quiet: &'a mut [bool],
+    /// Per cluster: its ICU's ring position at the last sample.
+    ring: &'a mut [usize],
     /// The array holds a whole earlier sample (unchanged links may be skipped).
     filled_before: bool,
 }
 
 impl Fill<'_> {
+    /// Sets position `dst` to the value at `src` and flags whether that changed it.
+    #[inline(always)]
+    fn copy(&mut self, dst: usize, src: usize) {
+        let v = self.values[src % FILL_CAP];
+        let i = dst % FILL_CAP;
+        let old = std::mem::replace(&mut self.values[i], v);
+        self.flags[i] = (old != v) as u8;
+    }
+
     /// Puts `v` at the next position and flags whether it changed the value there (no
     /// branch, and each put's stores independent of the last's).
     #[inline(always)]
@@ -125,10 +169,22 @@ struct FillChecked<'a> {
     pos: usize,
     flags: &'a mut [u8],
     quiet: &'a mut [bool],
+    ring: &'a mut [usize],
     filled_before: bool,
 }
 
 impl FillChecked<'_> {
+    #[inline(always)]
+    fn copy(&mut self, dst: usize, src: usize) {
+        let Some(&v) = self.values.get(src) else {
+            return;
+        };
+        if let (Some(x), Some(f)) = (self.values.get_mut(dst), self.flags.get_mut(dst)) {
+            *f = (*x != v) as u8;
+            *x = v;
+        }
+    }
+
     #[inline(always)]
     fn put(&mut self, v: u64) {
         if let (Some(x), Some(f)) = (self.values.get_mut(self.pos), self.flags.get_mut(self.pos)) {
@@ -170,6 +226,40 @@ macro_rules! fill_sink {
                     self.pos += n;
                 }
                 skip
+            }
+            #[inline(always)]
+            fn shift_stages(
+                &mut self,
+                c: usize,
+                position: usize,
+                stride: usize,
+                width: usize,
+                n: usize,
+            ) -> Shift {
+                let Some(at) = self.ring.get_mut(c) else {
+                    return Shift::Walk;
+                };
+                let moved = std::mem::replace(at, position) != position;
+                if !self.filled_before {
+                    return Shift::Walk;
+                }
+                if !moved {
+                    self.pos += n;
+                    return Shift::Held;
+                }
+                // Last stage first, so each takes the stage before it as it was.
+                let base = self.pos;
+                for k in (1..n / stride.max(1)).rev() {
+                    let at = base + k * stride;
+                    for j in 0..width {
+                        self.copy(at + j, at + j - stride);
+                    }
+                }
+                Shift::Moved
+            }
+            #[inline(always)]
+            fn derived(&mut self, n: usize) {
+                self.pos += n;
             }
             #[inline(always)]
             fn skip_unchanged_link(&mut self, changed: bool) -> bool {
@@ -230,6 +320,11 @@ impl Machine<'_> {
             self.scopes = Some(Scopes {
                 signals: n,
                 quiet: vec![false; quiet_units(self)],
+                ring: self
+                    .clusters
+                    .iter()
+                    .map(|c| c.icu.ring_position())
+                    .collect(),
                 filled: false,
                 ..sc
             });
@@ -239,6 +334,7 @@ impl Machine<'_> {
         let mut flags = std::mem::take(&mut self.probe_flags);
         let mut changes = std::mem::take(&mut self.probe_changes);
         let mut quiet = std::mem::take(&mut sc.quiet);
+        let mut ring = std::mem::take(&mut sc.ring);
         let n = sc.signals;
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
@@ -251,6 +347,7 @@ impl Machine<'_> {
                     pos: 0,
                     flags,
                     quiet: &mut quiet,
+                    ring: &mut ring,
                     filled_before: sc.filled,
                 };
                 self.walk(&sc, &mut f);
@@ -262,6 +359,7 @@ impl Machine<'_> {
                     pos: 0,
                     flags: &mut flags,
                     quiet: &mut quiet,
+                    ring: &mut ring,
                     filled_before: sc.filled,
                 };
                 self.walk(&sc, &mut f);
@@ -276,6 +374,7 @@ impl Machine<'_> {
         self.probe_flags = flags;
         self.probe_changes = changes;
         sc.quiet = quiet;
+        sc.ring = ring;
         self.scopes = Some(sc);
     }
 
@@ -377,9 +476,27 @@ impl Machine<'_> {
                 }
             }
             p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
-            // Four signals a stage (the count `skip_quiet` is told), all zero when empty.
+            // Four signals a stage (the count `skip_quiet` is told), all zero when empty; the
+            // first three (valid, ray, patch) move on a stage as the pipeline advances.
             let depth = cl.icu.depth();
-            if !p.skip_quiet(c, cl.icu.is_empty(), 4 * depth) {
+            if p.skip_quiet(c, cl.icu.is_empty(), 4 * depth) {
+                // Empty now and at the last sample: all zero still.
+            } else if let shift @ (Shift::Held | Shift::Moved) =
+                p.shift_stages(c, cl.icu.ring_position(), 4, 3, 4 * depth)
+            {
+                if shift == Shift::Moved {
+                    // Stage 0's new job and the result stage's t; the stages between moved.
+                    let (first, last) = (&cs.stages[0], &cs.stages[depth - 1]);
+                    let job = cl.icu.stage_job(0).map(|(j, _)| j);
+                    p.bits(first, "valid", 1, job.is_some() as u64);
+                    p.bits(first, "ray", 32, job.map_or(0, |j| j.ray as u64));
+                    p.bits(first, "patch", 24, job.map_or(0, |j| j.patch as u64));
+                    p.fixed_zero(first, "t", t_bits, t_frac);
+                    p.derived(4 * (depth - 2) + 3);
+                    let t = cl.icu.stage_job(depth - 1).and_then(|(_, t)| t);
+                    p.fixed(last, "t", t_bits, t_frac, t.unwrap_or(0));
+                }
+            } else {
                 // t is shown in the result stage only (`for_each_stage` gives it there alone).
                 let mut stages = cs.stages.iter();
                 cl.icu.for_each_stage(|valid, ray, patch, t| {
@@ -414,6 +531,8 @@ pub(super) struct Scopes {
     signals: usize,
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
     quiet: Vec<bool>,
+    /// Per cluster: its ICU's ring position at the last sample.
+    ring: Vec<usize>,
     /// The value array holds a whole sample (after the first fill).
     filled: bool,
 }
@@ -453,6 +572,7 @@ impl Scopes {
                 .collect(),
             signals: 0,
             quiet: Vec::new(),
+            ring: Vec::new(),
             filled: false,
         }
     }

@@ -176,6 +176,12 @@ impl Icu {
         r.valid.then_some(r)
     }
 
+    /// The ring's position: it moves (by one) exactly when the pipeline advances, so a
+    /// waveform can tell an advance from a stall between two samples one cycle apart.
+    pub fn ring_position(&self) -> usize {
+        self.base
+    }
+
     /// Stage registers holding a job.
     pub fn occupied(&self) -> usize {
         self.count
@@ -417,12 +423,73 @@ mod tests {
 
     #[test]
     fn the_stage_walk_gives_every_stage_as_stage_job_does_through_the_rings_wraps() {
+        let (mut valid_seen, mut empty_seen) = (0, 0);
+        let icu = drive(300, |cycle, icu| {
+            let walked = walk(icu);
+            let by_stage: Vec<_> = (0..icu.depth())
+                .map(|k| match icu.stage_job(k) {
+                    Some((j, t)) => (1, j.ray as u64, j.patch as u64, t.unwrap_or(0)),
+                    None => (0, 0, 0, 0),
+                })
+                .enumerate()
+                .map(|(k, (v, r, p, t))| (v, r, p, (k + 1 == icu.depth()).then_some(t)))
+                .collect();
+            assert_eq!(walked, by_stage, "cycle {cycle}");
+            valid_seen += walked.iter().filter(|w| w.0 == 1).count();
+            empty_seen += walked.iter().filter(|w| w.0 == 0).count();
+        });
+        assert!(
+            valid_seen > 100 && empty_seen > 100,
+            "{valid_seen} {empty_seen}"
+        );
+        assert!(icu.stats.results_out > 50, "{:?}", icu.stats);
+    }
+
+    /// What a waveform's delay line relies on (`trace::DelayLine`): between two edges the
+    /// ring's position moves exactly when every stage takes what the stage before it held,
+    /// and stays when nothing moves (a stall, or an empty ICU).
+    #[test]
+    fn the_ring_moves_exactly_when_the_stages_shift_into_the_next() {
+        let (mut shifts, mut holds) = (0, 0);
+        // The ring's position and the stages' (valid, ray, patch) after the last edge.
+        type Seen = (usize, Vec<(u64, u64, u64)>);
+        let mut last: Option<Seen> = None;
+        let icu = drive(300, |cycle, icu| {
+            let now: Vec<_> = walk(icu).iter().map(|&(v, r, p, _)| (v, r, p)).collect();
+            if let Some((at, before)) = &last {
+                if icu.ring_position() != *at {
+                    assert_eq!(
+                        now[1..],
+                        before[..before.len() - 1],
+                        "cycle {cycle}: shifted"
+                    );
+                    shifts += 1;
+                } else {
+                    assert_eq!(&now, before, "cycle {cycle}: held");
+                    holds += (now.iter().any(|s| s.0 == 1)) as u32;
+                }
+            }
+            last = Some((icu.ring_position(), now));
+        });
+        assert!(shifts > 100 && holds > 20, "{shifts} {holds}");
+        assert!(icu.stats.stalled_cycles > 20, "{:?}", icu.stats);
+    }
+
+    /// The waveform's stage values (`Icu::for_each_stage`).
+    fn walk(icu: &Icu) -> Vec<(u64, u64, u64, Option<i64>)> {
+        let mut walked = Vec::new();
+        icu.for_each_stage(|v, r, p, t| walked.push((v, r, p, t)));
+        walked
+    }
+
+    /// Drives an ICU for `cycles` cycles — jobs in bursts, results taken every other cycle,
+    /// so its stages fill, stall and empty — calling `each` after every clock edge; returns
+    /// it.
+    fn drive(cycles: u32, mut each: impl FnMut(u32, &Icu)) -> Icu {
         let (rays, patches, f) = records();
         let mut icu = Icu::new(4);
         let mut w = Wires::new();
-        let (mut valid_seen, mut empty_seen) = (0, 0);
-        for cycle in 0..300u32 {
-            // Jobs in bursts, results taken every other cycle: stages fill and empty.
+        for cycle in 0..cycles {
             if cycle % 40 < 25 && w.input.can_push() {
                 let job = Job {
                     ray: cycle % 4,
@@ -438,25 +505,9 @@ mod tests {
                 w.results[0].pop(UnitId::Ctu(0, 0));
             }
             w.commit();
-            let mut walked = Vec::new();
-            icu.for_each_stage(|v, r, p, t| walked.push((v, r, p, t)));
-            let by_stage: Vec<_> = (0..icu.depth())
-                .map(|k| match icu.stage_job(k) {
-                    Some((j, t)) => (1, j.ray as u64, j.patch as u64, t.unwrap_or(0)),
-                    None => (0, 0, 0, 0),
-                })
-                .enumerate()
-                .map(|(k, (v, r, p, t))| (v, r, p, (k + 1 == icu.depth()).then_some(t)))
-                .collect();
-            assert_eq!(walked, by_stage, "cycle {cycle}");
-            valid_seen += walked.iter().filter(|w| w.0 == 1).count();
-            empty_seen += walked.iter().filter(|w| w.0 == 0).count();
+            each(cycle, &icu);
         }
-        assert!(
-            valid_seen > 100 && empty_seen > 100,
-            "{valid_seen} {empty_seen}"
-        );
-        assert!(icu.stats.results_out > 50, "{:?}", icu.stats);
+        icu
     }
 
     #[test]
