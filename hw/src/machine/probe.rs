@@ -35,22 +35,15 @@ pub(super) trait Sink {
     fn fixed_zero(&mut self, scope: &str, name: &'static str, width: u32, frac: u32) {
         self.fixed(scope, name, width, frac, 0);
     }
-    /// Cluster `c`'s ICU stages, next: `n` signals, `stride` a stage, the first `width` of
-    /// each moving on to the next stage when the pipeline advances — which it did since the
-    /// last sample exactly when its ring's `position` moved (one cycle apart: a cycle jump
+    /// An ICU's stages, next ([`Stages`]): the first `width` signals of each stage move on
+    /// to the next stage when the pipeline advances — which it did since the last sample
+    /// exactly when its ring's `position` moved (one cycle apart: a cycle jump
     /// needs every ICU empty). A filler holding the last sample's values does the shift
     /// itself (each later stage takes the stage before it; [`Shift::Moved`]: the walk then
     /// reports stage 0 and the result stage's t, [`Sink::derived`] the rest) or, the ring
     /// unmoved, skips them all ([`Shift::Held`]: a stall changes nothing).
-    fn shift_stages(
-        &mut self,
-        c: usize,
-        position: usize,
-        stride: usize,
-        width: usize,
-        n: usize,
-    ) -> Shift {
-        let _ = (c, position, stride, width, n);
+    fn shift_stages(&mut self, stages: Stages) -> Shift {
+        let _ = stages;
         Shift::Walk
     }
     /// The next `n` signals were set by [`Sink::shift_stages`]: not reported.
@@ -64,6 +57,17 @@ pub(super) trait Sink {
         let _ = changed;
         false
     }
+}
+
+/// An ICU's stages as [`Sink::shift_stages`] is told of them: cluster `cluster`'s, its ring at
+/// `position`, `signals` in all, `stride` a stage of which the first `width` move on.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Stages {
+    pub cluster: usize,
+    pub position: usize,
+    pub stride: usize,
+    pub width: usize,
+    pub signals: usize,
 }
 
 /// What [`Sink::shift_stages`] did with an ICU's stages.
@@ -228,14 +232,14 @@ macro_rules! fill_sink {
                 skip
             }
             #[inline(always)]
-            fn shift_stages(
-                &mut self,
-                c: usize,
-                position: usize,
-                stride: usize,
-                width: usize,
-                n: usize,
-            ) -> Shift {
+            fn shift_stages(&mut self, stages: Stages) -> Shift {
+                let Stages {
+                    cluster: c,
+                    position,
+                    stride,
+                    width,
+                    signals: n,
+                } = stages;
                 let Some(at) = self.ring.get_mut(c) else {
                     return Shift::Walk;
                 };
@@ -481,9 +485,13 @@ impl Machine<'_> {
             let depth = cl.icu.depth();
             if p.skip_quiet(c, cl.icu.is_empty(), 4 * depth) {
                 // Empty now and at the last sample: all zero still.
-            } else if let shift @ (Shift::Held | Shift::Moved) =
-                p.shift_stages(c, cl.icu.ring_position(), 4, 3, 4 * depth)
-            {
+            } else if let shift @ (Shift::Held | Shift::Moved) = p.shift_stages(Stages {
+                cluster: c,
+                position: cl.icu.ring_position(),
+                stride: 4,
+                width: 3,
+                signals: 4 * depth,
+            }) {
                 if shift == Shift::Moved {
                     // Stage 0's new job and the result stage's t; the stages between moved.
                     let (first, last) = (&cs.stages[0], &cs.stages[depth - 1]);
