@@ -496,9 +496,8 @@ impl Machine<'_> {
                     // Stage 0's new job and the result stage's t; the stages between moved.
                     let (first, last) = (&cs.stages[0], &cs.stages[depth - 1]);
                     let job = cl.icu.stage_job(0).map(|(j, _)| j);
-                    p.bits(first, "valid", 1, job.is_some() as u64);
-                    p.bits(first, "ray", 32, job.map_or(0, |j| j.ray as u64));
-                    p.bits(first, "patch", 24, job.map_or(0, |j| j.patch as u64));
+                    let (ray, patch) = job.map_or((0, 0), |j| (j.ray as u64, j.patch as u64));
+                    stage_job(p, first, job.is_some() as u64, ray, patch);
                     p.fixed_zero(first, "t", t_bits, t_frac);
                     p.derived(4 * (depth - 2) + 3);
                     let t = cl.icu.stage_job(depth - 1).and_then(|(_, t)| t);
@@ -509,9 +508,7 @@ impl Machine<'_> {
                 let mut stages = cs.stages.iter();
                 cl.icu.for_each_stage(|valid, ray, patch, t| {
                     let ss = stages.next().map_or("", String::as_str);
-                    p.bits(ss, "valid", 1, valid);
-                    p.bits(ss, "ray", 32, ray);
-                    p.bits(ss, "patch", 24, patch);
+                    stage_job(p, ss, valid, ray, patch);
                     match t {
                         Some(t) => p.fixed(ss, "t", t_bits, t_frac, t),
                         None => p.fixed_zero(ss, "t", t_bits, t_frac),
@@ -520,6 +517,14 @@ impl Machine<'_> {
             }
         }
     }
+}
+
+/// An ICU stage's job signals: valid, ray, patch (its t follows).
+#[inline(always)]
+fn stage_job<S: Sink>(p: &mut S, scope: &str, valid: u64, ray: u64, patch: u64) {
+    p.bits(scope, "valid", 1, valid);
+    p.bits(scope, "ray", 32, ray);
+    p.bits(scope, "patch", 24, patch);
 }
 
 /// Units whose signals the walk skips while they stay quiet ([`Sink::skip_quiet`]): each

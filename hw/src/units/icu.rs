@@ -445,7 +445,7 @@ mod tests {
         assert!(icu.stats.results_out > 50, "{:?}", icu.stats);
     }
 
-    /// What a waveform's delay line relies on (`trace::DelayLine`): between two edges the
+    /// What the waveform's walk relies on (`Sink::shift_stages` in machine/probe.rs): between two edges the
     /// ring's position moves exactly when every stage takes what the stage before it held,
     /// and stays when nothing moves (a stall, or an empty ICU).
     #[test]
