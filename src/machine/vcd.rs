@@ -491,6 +491,9 @@ pub(crate) fn apply(values: &mut [u64], changes: &[u64]) {
 /// bytes on their way to the file.
 struct VcdBody {
     slots: Vec<Slot>,
+    /// Per position: how its lines are written (from `slots`, which only a text's line
+    /// reads per change).
+    formats: Vec<LineFormat>,
     /// Signal order of the header (indices into `slots`).
     declared: Vec<usize>,
     /// The last sample's values (those holding now).
@@ -595,14 +598,24 @@ impl VcdBody {
         Ok(())
     }
 
-    /// Slot `i`'s line for the value `v`.
+    /// Position `i`'s line for the value `v`, written as `f` (its format) says: a text's
+    /// through its slot, any other in a window of [`LINE`] bytes.
     #[inline(always)]
-    fn put_value(&mut self, i: usize, v: u64) -> io::Result<()> {
+    fn put_value(&mut self, i: usize, f: &LineFormat, v: u64) -> io::Result<()> {
         if self.at > VCD_BLOCK_BYTES {
             self.flush()?;
         }
-        let w = &mut self.out[self.at..self.at + self.margin];
-        self.at += put_value(w, &self.slots[i], v);
+        self.at += if f.class == LineClass::Text {
+            put_text(
+                &mut self.out[self.at..self.at + self.margin],
+                f,
+                &self.slots[i],
+                v,
+            )
+        } else {
+            let w = &mut self.out[self.at..self.at + LINE];
+            put_line(w.try_into().expect("LINE bytes"), f, v)
+        };
         Ok(())
     }
 }
@@ -619,7 +632,8 @@ impl Body for VcdBody {
         self.put(b"$dumpvars\n")?;
         for k in 0..self.declared.len() {
             let i = self.declared[k];
-            self.put_value(i, self.prev[i])?;
+            let f = self.formats[i];
+            self.put_value(i, &f, self.prev[i])?;
         }
         self.put(b"$end\n")
     }
@@ -629,13 +643,14 @@ impl Body for VcdBody {
         let mut stamped = false;
         for (i, v) in pairs(changes) {
             self.prev[i] = v;
-            if self.slots[i].declared {
+            let f = self.formats[i];
+            if f.class != LineClass::Hidden {
                 if !stamped {
                     stamped = true;
                     self.timestamps += 1;
                     self.put_time(t)?;
                 }
-                self.put_value(i, v)?;
+                self.put_value(i, &f, v)?;
             }
         }
         Ok(())
@@ -941,6 +956,7 @@ impl VcdWriter {
             .flat_map(|s| s.text_lines.iter().map(Vec::len))
             .fold(LINE, usize::max);
         let body = VcdBody {
+            formats: self.slots.iter().map(LineFormat::of).collect(),
             slots: self.slots.clone(),
             declared: order.clone(),
             prev: vec![0; self.slots.len()],
@@ -1261,31 +1277,79 @@ static BIN8_TRIM: [([u8; 8], usize); 256] = {
 /// room for the last fixed-size copies.
 const LINE: usize = 80;
 
-/// One VCD value change line, as the `vcd` crate writes it, at the front of `w` (at least
-/// [`LINE`] bytes, and the slot's longest text line); returns its length: `0!`/`1!` for a
-/// one-bit wire, `b<bits> !` for a vector (leading zeros dropped, which VCD zero-extends),
-/// `s<text> !`. Digits go eight at a time (a byte's, from a table) and the id as one 8-byte
-/// copy; bytes past the line's end are left as they fall.
+/// How the body writes one signal's value lines, by position: built once from its [`Slot`]
+/// when the header is written. Ten bytes, so a whole layout's (435 signals on the paper's
+/// machine) stays in the first-level cache, where the slots (a few hundred bytes each, on
+/// as many cache lines) are not read per change.
+#[derive(Clone, Copy, Debug, Default)]
+struct LineFormat {
+    class: LineClass,
+    /// The id and a newline, zero-padded to 8 bytes, and how many of its bytes count (as
+    /// [`Slot::id_nl`]).
+    id_nl: [u8; 8],
+    id_nl_len: u8,
+}
+
+/// What kind of line a signal's change is.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum LineClass {
+    /// Outside the scope filter: no line.
+    #[default]
+    Hidden,
+    /// A one-bit wire: `0!`, `1!`.
+    Bit,
+    /// A vector: `b<bits> !`.
+    Vector,
+    /// An FSM state: `s<text> !` (the slot's own lines).
+    Text,
+}
+
+impl LineFormat {
+    fn of(s: &Slot) -> Self {
+        let class = match s.kind {
+            _ if !s.declared => LineClass::Hidden,
+            SignalKind::Text => LineClass::Text,
+            _ if s.width == 1 => LineClass::Bit,
+            _ => LineClass::Vector,
+        };
+        LineFormat {
+            class,
+            id_nl: s.id_nl,
+            id_nl_len: s.id_nl_len as u8,
+        }
+    }
+}
+
+/// One VCD value change line, as the `vcd` crate writes it, at the front of `w`; returns
+/// its length: `0!`/`1!` for a one-bit wire, `b<bits> !` for a vector (leading zeros
+/// dropped, which VCD zero-extends); none for a text ([`put_text`]) or a hidden signal. A
+/// vector of up to 32 bits — every one of the machine's — is shifted so its first 1 leads,
+/// and its four bytes' digits come from a table as four 8-byte copies, with no branch on
+/// its length; the id is one 8-byte copy; bytes past the line's end are left as they fall.
 #[inline(always)]
-fn put_value(w: &mut [u8], s: &Slot, v: u64) -> usize {
-    match s.kind {
-        SignalKind::Text => {
-            if let Some(l) = s.text_lines.get(v as usize) {
-                w[..l.len()].copy_from_slice(l);
-                return l.len();
-            }
-            // Not a state of the declared list: shown as "-".
-            w[..3].copy_from_slice(b"s- ");
-            w[3..11].copy_from_slice(&s.id_nl);
-            3 + s.id_nl_len
-        }
-        _ if s.width == 1 => {
+fn put_line(w: &mut [u8; LINE], f: &LineFormat, v: u64) -> usize {
+    let id_len = f.id_nl_len as usize;
+    match f.class {
+        LineClass::Bit => {
             w[0] = b'0' + (v & 1) as u8;
-            w[1..9].copy_from_slice(&s.id_nl);
-            1 + s.id_nl_len
+            w[1..9].copy_from_slice(&f.id_nl);
+            1 + id_len
         }
-        _ => {
-            let w: &mut [u8; LINE] = (&mut w[..LINE]).try_into().expect("LINE bytes");
+        LineClass::Vector if v >> 32 == 0 => {
+            // Shifted up so its first 1 is bit 31, its n digits lead the word's 32; the
+            // (zero) digits after them fall where the id goes.
+            let n = (32 - (v as u32).leading_zeros()).max(1) as usize;
+            let u = (v as u32) << (32 - n);
+            w[0] = b'b';
+            for k in 0..4 {
+                let byte = (u >> (24 - 8 * k)) & 0xFF;
+                w[1 + 8 * k..9 + 8 * k].copy_from_slice(&BIN8[byte as usize]);
+            }
+            w[1 + n] = b' ';
+            w[2 + n..10 + n].copy_from_slice(&f.id_nl);
+            2 + n + id_len
+        }
+        LineClass::Vector => {
             w[0] = b'b';
             let n = (64 - v.leading_zeros()).max(1) as usize;
             let top = (n - 1) / 8;
@@ -1297,10 +1361,24 @@ fn put_value(w: &mut [u8], s: &Slot, v: u64) -> usize {
                 at += 8;
             }
             w[at] = b' ';
-            w[at + 1..at + 9].copy_from_slice(&s.id_nl);
-            at + 1 + s.id_nl_len
+            w[at + 1..at + 9].copy_from_slice(&f.id_nl);
+            at + 1 + id_len
         }
+        LineClass::Text | LineClass::Hidden => 0,
     }
+}
+
+/// A text's value change line (`s<text> !`, the slot's own for the state `v`) at the front
+/// of `w` (the longest of them fits); returns its length.
+fn put_text(w: &mut [u8], f: &LineFormat, slot: &Slot, v: u64) -> usize {
+    if let Some(l) = slot.text_lines.get(v as usize) {
+        w[..l.len()].copy_from_slice(l);
+        return l.len();
+    }
+    // Not a state of the declared list: shown as "-".
+    w[..3].copy_from_slice(b"s- ");
+    w[3..11].copy_from_slice(&f.id_nl);
+    3 + f.id_nl_len as usize
 }
 
 #[cfg(test)]
@@ -1402,11 +1480,16 @@ mod tests {
             2,
             0xFF,
             0x100,
+            0x7F,
+            0x80,
             0x1234_5678,
+            0x8000_0000,
+            0xFFFF_FFFF,
+            0x1_0000_0000,
             0xFF_FFFF_FFFF,
             u64::MAX,
         ] {
-            let n = put_value(&mut w, &slot, v);
+            let n = put_line(&mut w, &LineFormat::of(&slot), v);
             let buf = w[..n].to_vec();
             let mut w = vcd::Writer::new(Vec::new());
             let n = (64 - v.leading_zeros()).max(1);
@@ -1421,7 +1504,7 @@ mod tests {
             assert_eq!(buf, w.writer().clone(), "{v:#x}");
         }
         slot.width = 1;
-        let n = put_value(&mut w, &slot, 1);
+        let n = put_line(&mut w, &LineFormat::of(&slot), 1);
         assert_eq!(&w[..n], b"1%+\n");
         let n = put_time(&mut w, 1234567);
         assert_eq!(&w[..n], b"#1234567\n");
