@@ -70,6 +70,7 @@ fn bench(c: &mut Criterion) {
                 let opts = shellsim::machine::vcd::VcdOptions {
                     window: shellsim::machine::vcd::Window::ALL,
                     scope: None,
+                    ..Default::default()
                 };
                 let mut w = shellsim::machine::vcd::VcdWriter::create(&path, opts).unwrap();
                 let mut m = shellsim_hw::machine::Machine::new(

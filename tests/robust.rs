@@ -721,6 +721,18 @@ fn a_vcd_scope_matching_nothing_is_an_error_not_an_empty_file() {
 }
 
 #[test]
+fn an_fst_pack_for_a_vcd_is_an_error_not_a_silently_ignored_flag() {
+    let d = tempfile::tempdir().unwrap();
+    let r = run_cornell(d.path(), &["--vcd", "w.vcd", "--fst-pack", "lz4"]);
+    r.refused(&["--fst-pack", "w.vcd", "FILE.fst"]);
+    assert!(names(d.path()).is_empty(), "{:?}", names(d.path()));
+    // With an FST it writes the pair.
+    let r = run_cornell(d.path(), &["--wave", "w.fst", "--fst-pack", "lz4"]);
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    assert_eq!(names(d.path()), ["w.fst", "w.gtkw"]);
+}
+
+#[test]
 fn a_waveform_past_wave_limit_stops_the_run_and_leaves_nothing() {
     let d = tempfile::tempdir().unwrap();
     let r = run_cornell(d.path(), &["--vcd", "w.vcd", "--wave-limit", "1K"]);

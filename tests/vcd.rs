@@ -10,7 +10,7 @@ mod common;
 
 use shellsim::machine::gtkw;
 use shellsim::machine::run::{RunSpec, RunStats};
-use shellsim::machine::vcd::{ScopeFilter, VcdOptions, VcdSummary, VcdWriter, Window};
+use shellsim::machine::vcd::{FstPack, ScopeFilter, VcdOptions, VcdSummary, VcdWriter, Window};
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::machine::TickOrder;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -470,6 +470,7 @@ fn a_cycle_window_keeps_only_its_cycles_and_opens_with_the_full_state() {
         VcdOptions {
             window: win,
             scope: None,
+            ..Default::default()
         },
     );
     let w = read(&s.path);
@@ -518,6 +519,7 @@ fn a_cycle_window_keeps_only_its_cycles_and_opens_with_the_full_state() {
         VcdOptions {
             window: win2,
             scope: None,
+            ..Default::default()
         },
     );
     let w2 = read(&s2.path);
@@ -548,6 +550,7 @@ fn a_scope_filter_declares_only_matching_signals() {
             VcdOptions {
                 window: Window::ALL,
                 scope: Some(ScopeFilter::new(pattern)),
+                ..Default::default()
             },
         );
         let w = read(&s.path);
@@ -891,6 +894,7 @@ fn the_fst_holds_exactly_the_vcds_value_changes() {
             to: 3000,
         },
         scope: None,
+        ..Default::default()
     });
 }
 
@@ -907,7 +911,37 @@ fn a_windowed_scope_filtered_fst_holds_exactly_the_vcds_value_changes() {
             to: 2500,
         },
         scope: Some(ScopeFilter::new("machine.cluster_1.*")),
+        ..Default::default()
     });
+}
+
+/// LZ4 sections (`--fst-pack lz4`): the FST holds exactly the VCD's value changes, and
+/// it is not the zlib file (the pack was applied).
+#[test]
+fn an_lz4_fst_holds_exactly_the_vcds_value_changes() {
+    if !have_fst2vcd() {
+        return;
+    }
+    let opts = VcdOptions {
+        window: Window {
+            from: 100,
+            to: 3000,
+        },
+        scope: None,
+        fst_pack: FstPack::Lz4,
+    };
+    fst_matches_vcd(opts.clone());
+    let dir = tempfile::tempdir().unwrap();
+    let (_, lz4, _) = run(dir.path(), "lz4.fst", opts.clone());
+    let zlib = VcdOptions {
+        fst_pack: FstPack::Zlib,
+        ..opts
+    };
+    let (_, zlib, _) = run(dir.path(), "zlib.fst", zlib);
+    assert_ne!(
+        std::fs::read(&lz4.path).unwrap(),
+        std::fs::read(&zlib.path).unwrap()
+    );
 }
 
 /// The FST (compressed on a writer thread) is byte-identical between two identical runs.

@@ -92,6 +92,7 @@ pub fn default_job() -> Result<DefaultJob> {
         VcdOptions {
             window: Window::ALL,
             scope: None,
+            ..Default::default()
         },
     );
     let m = execute(

@@ -5,12 +5,12 @@
 //! simulation thread (the VCD's sample stream, `super::vcd`): each sample comes as its
 //! changed values (the machine finds them as it fills its array), and each changed declared value goes to the crate
 //! as an integer (a text, an FSM state, as the bits of its ASCII characters), which encodes
-//! it into its signal's change chain; each section is compressed (zlib format, libdeflate)
-//! and written in turn by the crate's compressor thread while the next one fills, so the
-//! file's bytes do not depend on the timing. Sections are cut every
-//! [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
+//! it into its signal's change chain; each section is compressed (zlib format through
+//! libdeflate, or LZ4: [`FstPack`]) and written in turn by the crate's compressor thread
+//! while the next one fills, so the file's bytes do not depend on the timing. Sections are
+//! cut every [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
 
-use super::vcd::{pairs, Body, BodyEnd, BodyError, Clock, ThreadBody, Window};
+use super::vcd::{pairs, Body, BodyEnd, BodyError, Clock, FstPack, ThreadBody, Window};
 use fst_writer::{FstBodyWriter, FstCompression, FstSignalId};
 use std::fs::File;
 use std::io::{self, BufWriter};
@@ -20,10 +20,16 @@ use std::io::{self, BufWriter};
 /// so compressing overlaps filling for all but the last (32 MiB: 0.8 % smaller, 5 sections).
 const FST_FLUSH_BYTES: usize = 16 << 20;
 
-/// How the sections are compressed: zlib format through libdeflate at level 1 — the fastest
-/// level, which makes the FST ~18× smaller than the VCD, cheaper than miniz_oxide's zlib
-/// level 1 (~13×) and more than LZ4 (~8.6×, short of issue 13's 10×; BENCHMARKS.md).
-const FST_COMPRESSION: FstCompression = FstCompression::Deflate(1);
+/// How the sections are compressed for each [`FstPack`]: zlib format through libdeflate at
+/// level 1 — the fastest level, which makes the FST ~18× smaller than the VCD, cheaper than
+/// miniz_oxide's zlib level 1 (~13×) — or LZ4 (~8.6×, short of issue 13's 10×, and a tenth
+/// of the compressor's work; BENCHMARKS.md).
+fn compression(pack: FstPack) -> FstCompression {
+    match pack {
+        FstPack::Zlib => FstCompression::Deflate(1),
+        FstPack::Lz4 => FstCompression::Lz4,
+    }
+}
 
 /// One probe signal as the FST body writes it.
 #[derive(Clone, Copy)]
@@ -93,14 +99,16 @@ pub(crate) fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
 
 impl FstBody {
     /// The body writer `w` (the header written), the signals' handles and texts (by probe
-    /// position) and the declared order; starts the thread that compresses the sections.
+    /// position) and the declared order; starts the thread that compresses the sections
+    /// (as `pack` says).
     pub(crate) fn new(
         mut w: FstBodyWriter<BufWriter<File>>,
         handles: Vec<FstHandle>,
         text_bits: Vec<Vec<Vec<u8>>>,
         order: Vec<usize>,
+        pack: FstPack,
     ) -> io::Result<Self> {
-        w.set_compression(FST_COMPRESSION);
+        w.set_compression(compression(pack));
         w.compress_in_background().map_err(fst_err)?;
         let sigs = handles.iter().map(|h| Sig {
             id: h.id,
