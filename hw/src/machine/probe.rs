@@ -153,8 +153,6 @@ struct Fill<'a> {
     quiet: &'a mut [bool],
     /// Per cluster: its ICU's ring position at the last sample.
     ring: &'a mut [usize],
-    /// The array holds a whole earlier sample (unchanged links may be skipped).
-    filled_before: bool,
     /// Stage 0's moving values at the last sample, kept by [`Sink::shift_stages`] for
     /// [`Sink::move_stages`].
     carry: [u64; CARRY],
@@ -179,6 +177,13 @@ impl Fill<'_> {
         self.values[at % FILL_CAP]
     }
 
+    /// True: a [`Fill`] fills over a whole earlier sample only (the first goes through
+    /// [`FillChecked`]), so no skip tests for it.
+    #[inline(always)]
+    fn filled_before(&self) -> bool {
+        true
+    }
+
     /// Puts `v` at the next position, listing it when it changed the value there.
     #[inline(always)]
     fn put(&mut self, v: u64) {
@@ -187,8 +192,8 @@ impl Fill<'_> {
     }
 }
 
-/// Fills a value array of any size (a layout past [`FILL_CAP`]) as [`Fill`] does, a bound
-/// check per value.
+/// Fills a value array of any size (a layout past [`FILL_CAP`], and every layout's first
+/// sample) as [`Fill`] does, a bound check per value.
 struct FillChecked<'a> {
     values: &'a mut [u64],
     pos: usize,
@@ -220,6 +225,12 @@ impl FillChecked<'_> {
     #[inline(always)]
     fn get(&self, at: usize) -> u64 {
         self.values.get(at).copied().unwrap_or(0)
+    }
+
+    /// The array holds a whole earlier sample (unchanged links may be skipped).
+    #[inline(always)]
+    fn filled_before(&self) -> bool {
+        self.filled_before
     }
 
     /// [`Fill::put`].
@@ -275,7 +286,7 @@ macro_rules! fill_sink {
                     return Shift::Walk;
                 };
                 let moved = std::mem::replace(at, position) != position;
-                if !self.filled_before || width > CARRY.min(stride) || n < 2 * stride {
+                if !self.filled_before() || width > CARRY.min(stride) || n < 2 * stride {
                     return Shift::Walk;
                 }
                 if !moved {
@@ -308,7 +319,7 @@ macro_rules! fill_sink {
             }
             #[inline(always)]
             fn skip_unchanged_link(&mut self, changed: bool) -> bool {
-                let skip = !changed && self.filled_before;
+                let skip = !changed && self.filled_before();
                 if skip {
                     self.pos += LINK_SIGNALS;
                 }
@@ -344,18 +355,20 @@ impl Machine<'_> {
                 ..sc
             });
         }
-        let mut sc = self.scopes.take().expect("built above");
-        let mut values = std::mem::take(&mut self.probe_values);
-        let mut changes = std::mem::take(&mut self.probe_changes);
+        // The walk reads the scopes where they are (only the fillers' own state moved out).
+        let sc = self.scopes.as_mut().expect("built above");
         let mut quiet = std::mem::take(&mut sc.quiet);
         let mut ring = std::mem::take(&mut sc.ring);
-        let n = sc.signals;
+        let (n, filled_before) = (sc.signals, sc.filled);
+        let mut values = std::mem::take(&mut self.probe_values);
+        let mut changes = std::mem::take(&mut self.probe_changes);
+        let sc = self.scopes.as_ref().expect("built above");
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
             <&mut [u32; FILL_CAP]>::try_from(&mut changes[..]),
         );
         let (filled, changed) = match fixed {
-            (Ok(values), Ok(changes)) if n <= FILL_CAP => {
+            (Ok(values), Ok(changes)) if n <= FILL_CAP && filled_before => {
                 let mut f = Fill {
                     values,
                     pos: 0,
@@ -363,10 +376,9 @@ impl Machine<'_> {
                     changes,
                     quiet: &mut quiet,
                     ring: &mut ring,
-                    filled_before: sc.filled,
                     carry: [0; CARRY],
                 };
-                self.walk(&sc, &mut f);
+                self.walk(sc, &mut f);
                 (f.pos, f.listed)
             }
             _ => {
@@ -377,21 +389,21 @@ impl Machine<'_> {
                     changes: &mut changes,
                     quiet: &mut quiet,
                     ring: &mut ring,
-                    filled_before: sc.filled,
+                    filled_before,
                     carry: [0; CARRY],
                 };
-                self.walk(&sc, &mut f);
+                self.walk(sc, &mut f);
                 (f.pos, f.listed)
             }
         };
         assert_eq!(filled, n, "the walk's layout never changes");
-        sc.filled = true;
         p.sample_changes(self.cycle, &values[..n], &changes[..changed]);
         self.probe_values = values;
         self.probe_changes = changes;
+        let sc = self.scopes.as_mut().expect("built above");
         sc.quiet = quiet;
         sc.ring = ring;
-        self.scopes = Some(sc);
+        sc.filled = true;
     }
 
     /// Visits every signal in the waveform's order.
