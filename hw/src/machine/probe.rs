@@ -442,8 +442,9 @@ impl Machine<'_> {
             );
             p.bits(&sc.balancer, "retries", 32, self.balancer.stats.retries);
         }
-        for (c, cl) in self.clusters.iter().enumerate() {
-            let cs = &sc.clusters[c];
+        // The scopes are looked up without an index (a filler uses none of them, and then
+        // nothing is left of the lookups); `Scopes::new` made one per unit.
+        for (c, (cl, cs)) in self.clusters.iter().zip(&sc.clusters).enumerate() {
             if self.cfg.balance.enabled {
                 p.bits(
                     &cs.balance,
@@ -485,8 +486,7 @@ impl Machine<'_> {
                 }
                 self.links.probe(p, Section::BundleCluster(c));
             }
-            for (j, ctu) in cl.ctus.iter().enumerate() {
-                let s = &cs.ctus[j];
+            for (j, (ctu, s)) in cl.ctus.iter().zip(&cs.ctus).enumerate() {
                 // A finished CTU never ticks again: its six signals are final.
                 let u = self.clusters.len() + c * cl.ctus.len() + j;
                 if !p.skip_quiet(u, ctu.is_finished(), 6) {
@@ -519,7 +519,8 @@ impl Machine<'_> {
             } else if let shift @ (Shift::Held | Shift::Moved) = p.shift_stages(stages) {
                 if shift == Shift::Moved {
                     // Stage 0's new job and the result stage's t; the stages between moved.
-                    let (first, last) = (&cs.stages[0], &cs.stages[depth - 1]);
+                    let stage = |k: usize| cs.stages.get(k).map_or("", String::as_str);
+                    let (first, last) = (stage(0), stage(depth - 1));
                     let job = cl.icu.stage_job(0).map(|(j, _)| j);
                     let (ray, patch) = job.map_or((0, 0), |j| (j.ray as u64, j.patch as u64));
                     stage_job(p, first, job.is_some() as u64, ray, patch);
