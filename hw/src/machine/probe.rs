@@ -307,11 +307,24 @@ macro_rules! fill_sink {
                     ..
                 } = stages;
                 // Stage k takes stage k − 1's value as it was, its own carried on to k + 1.
+                // Two stages a round, the second taking the first's values where they were
+                // read (carried from stage to stage, they would be copied between registers).
                 let mut carry = self.carry;
                 let mut at = self.pos;
-                for _ in 1..n / stride {
-                    for (j, v) in carry.iter_mut().enumerate().take(width) {
-                        *v = self.set(at + j, *v);
+                let later = n / stride - 1;
+                for _ in 0..later / 2 {
+                    let mut mid = [0; CARRY];
+                    for (j, (m, c)) in mid.iter_mut().zip(&carry).enumerate().take(width) {
+                        *m = self.set(at + j, *c);
+                    }
+                    for (j, (c, m)) in carry.iter_mut().zip(&mid).enumerate().take(width) {
+                        *c = self.set(at + stride + j, *m);
+                    }
+                    at += 2 * stride;
+                }
+                if later % 2 == 1 {
+                    for (j, c) in carry.iter_mut().enumerate().take(width) {
+                        *c = self.set(at + j, *c);
                     }
                     at += stride;
                 }
