@@ -10,6 +10,8 @@
 //! CTU's signals (final) when so at the last sample too, a link no edge touched, a stage's t
 //! before the result stage (always zero).
 
+use std::cell::Cell;
+
 use super::links::{probe_link, Section};
 use super::Machine;
 use crate::trace::{Probe, SignalDecl, SignalKind};
@@ -150,9 +152,9 @@ struct Fill<'a> {
     /// This sample's changed positions, ascending, the first `listed` (past them: scratch).
     changes: &'a mut [u32; FILL_CAP],
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
-    quiet: &'a mut [bool],
+    quiet: &'a [Cell<bool>],
     /// Per cluster: its ICU's ring position at the last sample.
-    ring: &'a mut [usize],
+    ring: &'a [Cell<usize>],
     /// Stage 0's moving values at the last sample, kept by [`Sink::shift_stages`] for
     /// [`Sink::move_stages`].
     carry: [u64; CARRY],
@@ -200,8 +202,8 @@ struct FillChecked<'a> {
     listed: usize,
     /// As long as `values`.
     changes: &'a mut [u32],
-    quiet: &'a mut [bool],
-    ring: &'a mut [usize],
+    quiet: &'a [Cell<bool>],
+    ring: &'a [Cell<usize>],
     filled_before: bool,
     carry: [u64; CARRY],
 }
@@ -263,11 +265,10 @@ macro_rules! fill_sink {
             }
             #[inline(always)]
             fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
-                let Some(was) = self.quiet.get_mut(u) else {
+                let Some(was) = self.quiet.get(u) else {
                     return false;
                 };
-                let skip = quiet && *was;
-                *was = quiet;
+                let skip = was.replace(quiet) && quiet;
                 if skip {
                     self.pos += n;
                 }
@@ -282,10 +283,10 @@ macro_rules! fill_sink {
                     width,
                     signals: n,
                 } = stages;
-                let Some(at) = self.ring.get_mut(c) else {
+                let Some(at) = self.ring.get(c) else {
                     return Shift::Walk;
                 };
-                let moved = std::mem::replace(at, position) != position;
+                let moved = at.replace(position) != position;
                 if !self.filled_before() || width > CARRY.min(stride) || n < 2 * stride {
                     return Shift::Walk;
                 }
@@ -358,24 +359,22 @@ impl Machine<'_> {
             self.probe_changes = vec![0; n.max(FILL_CAP)];
             self.scopes = Some(Scopes {
                 signals: n,
-                quiet: vec![false; quiet_units(self)],
+                quiet: vec![Cell::new(false); quiet_units(self)],
                 ring: self
                     .clusters
                     .iter()
-                    .map(|c| c.icu.ring_position())
+                    .map(|c| Cell::new(c.icu.ring_position()))
                     .collect(),
                 filled: false,
                 ..sc
             });
         }
-        // The walk reads the scopes where they are (only the fillers' own state moved out).
-        let sc = self.scopes.as_mut().expect("built above");
-        let mut quiet = std::mem::take(&mut sc.quiet);
-        let mut ring = std::mem::take(&mut sc.ring);
-        let (n, filled_before) = (sc.signals, sc.filled);
+        // The walk reads the scopes where they are, and the fillers update their state in
+        // them through cells; only the arrays are moved out.
         let mut values = std::mem::take(&mut self.probe_values);
         let mut changes = std::mem::take(&mut self.probe_changes);
         let sc = self.scopes.as_ref().expect("built above");
+        let (n, filled_before) = (sc.signals, sc.filled);
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
             <&mut [u32; FILL_CAP]>::try_from(&mut changes[..]),
@@ -387,8 +386,8 @@ impl Machine<'_> {
                     pos: 0,
                     listed: 0,
                     changes,
-                    quiet: &mut quiet,
-                    ring: &mut ring,
+                    quiet: &sc.quiet,
+                    ring: &sc.ring,
                     carry: [0; CARRY],
                 };
                 self.walk(sc, &mut f);
@@ -400,8 +399,8 @@ impl Machine<'_> {
                     pos: 0,
                     listed: 0,
                     changes: &mut changes,
-                    quiet: &mut quiet,
-                    ring: &mut ring,
+                    quiet: &sc.quiet,
+                    ring: &sc.ring,
                     filled_before,
                     carry: [0; CARRY],
                 };
@@ -413,10 +412,9 @@ impl Machine<'_> {
         p.sample_changes(self.cycle, &values[..n], &changes[..changed]);
         self.probe_values = values;
         self.probe_changes = changes;
-        let sc = self.scopes.as_mut().expect("built above");
-        sc.quiet = quiet;
-        sc.ring = ring;
-        sc.filled = true;
+        if let Some(sc) = &mut self.scopes {
+            sc.filled = true;
+        }
     }
 
     /// Visits every signal in the waveform's order.
@@ -582,9 +580,9 @@ pub(super) struct Scopes {
     /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
     signals: usize,
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
-    quiet: Vec<bool>,
+    quiet: Vec<Cell<bool>>,
     /// Per cluster: its ICU's ring position at the last sample.
-    ring: Vec<usize>,
+    ring: Vec<Cell<usize>>,
     /// The value array holds a whole sample (after the first fill).
     filled: bool,
 }
