@@ -139,18 +139,24 @@ const FILL_CAP: usize = 1 << 12;
 /// keeps this many of stage 0's values to hand to stage 1.
 const CARRY: usize = 4;
 
+/// Positions a [`Fill`]'s change list holds: every position of 16 bits, so the list's end,
+/// taken as 16 bits, needs no bound check nor mask (one zero-extension where a wrap at
+/// [`FILL_CAP`] takes a copy and a mask); it never passes `FILL_CAP`. Only the list's first
+/// positions are ever written (a fresh allocation's pages are mapped when first touched).
+const LIST_CAP: usize = 1 << 16;
+
 /// Fills the value array in signal order, over the last sample's values, and lists the
-/// positions it changes as it goes. The position and the list's end wrap at the arrays' size,
-/// so no put can panic (the compiler then keeps them in registers over a run of puts and
-/// drops the bound checks); `Machine::probe` checks once per sample that the walk filled
-/// exactly the layout, which is never larger than the arrays.
+/// positions it changes as it goes. The position wraps at the array's size and the list's
+/// end at the list's ([`LIST_CAP`]), so no put can panic (the compiler then keeps them in
+/// registers over a run of puts and drops the bound checks); `Machine::probe` checks once
+/// per sample that the walk filled exactly the layout, which is never larger than the array.
 struct Fill<'a> {
     values: &'a mut [u64; FILL_CAP],
     pos: usize,
     /// Positions listed in `changes` so far.
     listed: usize,
     /// This sample's changed positions, ascending, the first `listed` (past them: scratch).
-    changes: &'a mut [u32; FILL_CAP],
+    changes: &'a mut [u32; LIST_CAP],
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
     quiet: &'a [Cell<bool>],
     /// Per cluster: its ICU's ring position at the last sample.
@@ -168,7 +174,7 @@ impl Fill<'_> {
     fn set(&mut self, at: usize, v: u64) -> u64 {
         let i = at % FILL_CAP;
         let old = std::mem::replace(&mut self.values[i], v);
-        self.changes[self.listed % FILL_CAP] = i as u32;
+        self.changes[self.listed as u16 as usize] = i as u32;
         self.listed += (old != v) as usize;
         old
     }
@@ -200,7 +206,7 @@ struct FillChecked<'a> {
     values: &'a mut [u64],
     pos: usize,
     listed: usize,
-    /// As long as `values`.
+    /// At least as long as `values`.
     changes: &'a mut [u32],
     quiet: &'a [Cell<bool>],
     ring: &'a [Cell<usize>],
@@ -356,7 +362,7 @@ impl Machine<'_> {
             p.declare(&d.0);
             let n = d.0.len();
             self.probe_values = vec![0; n.max(FILL_CAP)];
-            self.probe_changes = vec![0; n.max(FILL_CAP)];
+            self.probe_changes = vec![0; n.max(LIST_CAP)];
             self.scopes = Some(Scopes {
                 signals: n,
                 quiet: vec![Cell::new(false); quiet_units(self)],
@@ -377,7 +383,7 @@ impl Machine<'_> {
         let (n, filled_before) = (sc.signals, sc.filled);
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
-            <&mut [u32; FILL_CAP]>::try_from(&mut changes[..]),
+            <&mut [u32; LIST_CAP]>::try_from(&mut changes[..]),
         );
         let (filled, changed) = match fixed {
             (Ok(values), Ok(changes)) if n <= FILL_CAP && filled_before => {
