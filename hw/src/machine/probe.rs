@@ -293,7 +293,8 @@ macro_rules! fill_sink {
                     return Shift::Walk;
                 };
                 let moved = at.replace(position) != position;
-                if !self.filled_before() || width > CARRY.min(stride) || n < 2 * stride {
+                let fits = stride > 0 && width <= CARRY.min(stride) && n >= 2 * stride;
+                if !self.filled_before() || !fits {
                     return Shift::Walk;
                 }
                 if !moved {
@@ -631,5 +632,73 @@ impl Scopes {
             ring: Vec::new(),
             filled: false,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Three stages of four signals (valid, ray, patch, t) at the last sample, and the ICU
+    /// advanced since: its ring moved on, stage 0 now empty, the result stage's t 4.
+    const LAST: [u64; 12] = [1, 7, 8, 0, 1, 5, 6, 0, 1, 5, 9, 3];
+    const STAGES: Stages = Stages {
+        cluster: 0,
+        position: 1,
+        stride: 4,
+        width: 3,
+        signals: 12,
+    };
+
+    /// Reports the advanced ICU to `f` as the walk does.
+    fn advance<S: Sink>(f: &mut S) {
+        assert_eq!(f.shift_stages(STAGES), Shift::Moved);
+        stage_job(f, "", 0, 0, 0);
+        f.fixed_zero("", "t", 8, 0);
+        f.move_stages(STAGES);
+        f.fixed("", "t", 8, 0, 4);
+    }
+
+    /// The values after the move, and the positions that changed, ascending.
+    const NEXT: [u64; 12] = [0, 0, 0, 0, 1, 7, 8, 0, 1, 5, 6, 4];
+    const CHANGED: [u32; 7] = [0, 1, 2, 5, 6, 10, 11];
+
+    #[test]
+    fn both_fillers_move_an_advanced_icus_stages_listing_the_changes_ascending() {
+        let ring = [Cell::new(0)];
+        let mut values = vec![0u64; FILL_CAP];
+        values[..12].copy_from_slice(&LAST);
+        let mut changes = vec![0u32; LIST_CAP];
+        let mut f = Fill {
+            values: (&mut values[..]).try_into().expect("FILL_CAP values"),
+            pos: 0,
+            listed: 0,
+            changes: (&mut changes[..]).try_into().expect("LIST_CAP positions"),
+            quiet: &[],
+            ring: &ring,
+            carry: [0; CARRY],
+        };
+        advance(&mut f);
+        assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
+        assert_eq!(values[..12], NEXT);
+        assert_eq!(changes[..CHANGED.len()], CHANGED);
+
+        let ring = [Cell::new(0)];
+        let mut values = LAST.to_vec();
+        let mut changes = vec![0u32; 12];
+        let mut f = FillChecked {
+            values: &mut values,
+            pos: 0,
+            listed: 0,
+            changes: &mut changes,
+            quiet: &[],
+            ring: &ring,
+            filled_before: true,
+            carry: [0; CARRY],
+        };
+        advance(&mut f);
+        assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
+        assert_eq!(values, NEXT);
+        assert_eq!(changes[..CHANGED.len()], CHANGED);
     }
 }
