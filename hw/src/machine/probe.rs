@@ -2,12 +2,15 @@
 //! ([`Machine::walk`]) visits them in the waveform's signal order: on the first sample it
 //! declares the layout to the [`Probe`] (scope names built once), on every sample it fills a
 //! flat value array, position = signal id, handed to the probe whole with the positions whose
-//! value changed (each put flags whether it changed the value it replaces, without a branch
-//! or a count carried from put to put; one pass over the flags then lists them) — no string is
+//! value changed, ascending (each put stores its position at the end of the list and counts
+//! it in only when it changed the value it replaces, without a branch; the walk visits the
+//! positions in ascending order, so no second pass sorts or gathers them) — no string is
 //! touched per cycle and nothing is allocated. The array keeps the last sample's values, so
 //! what cannot have changed is not put again: an empty ICU's stages (all zero) and a finished
 //! CTU's signals (final) when so at the last sample too, a link no edge touched, a stage's t
 //! before the result stage (always zero).
+
+use std::cell::Cell;
 
 use super::links::{probe_link, Section};
 use super::Machine;
@@ -39,16 +42,20 @@ pub(super) trait Sink {
     /// to the next stage when the pipeline advances — which it did since the last sample
     /// exactly when its ring's `position` moved (one cycle apart: a cycle jump
     /// needs every ICU empty). A filler holding the last sample's values does the shift
-    /// itself (each later stage takes the stage before it; [`Shift::Moved`]: the walk then
-    /// reports stage 0 and the result stage's t, [`Sink::derived`] the rest) or, the ring
-    /// unmoved, skips them all ([`Shift::Held`]: a stall changes nothing).
+    /// itself ([`Shift::Moved`]: it keeps stage 0's moving signals as they were, the walk
+    /// reports stage 0, [`Sink::move_stages`] moves the later stages, the walk reports the
+    /// result stage's t) or, the ring unmoved, skips them all ([`Shift::Held`]: a stall
+    /// changes nothing).
     fn shift_stages(&mut self, stages: Stages) -> Shift {
         let _ = stages;
         Shift::Walk
     }
-    /// The next `n` signals were set by [`Sink::shift_stages`]: not reported.
-    fn derived(&mut self, n: usize) {
-        let _ = n;
+    /// After [`Shift::Moved`] and stage 0, at stage 1: each later stage's first `width`
+    /// signals take the stage before it as it was at the last sample, stage 1 first (so
+    /// the positions stay ascending), up to the result stage's signal `width` (its t).
+    /// Nothing reported.
+    fn move_stages(&mut self, stages: Stages) {
+        let _ = stages;
     }
     /// The next [`LINK_SIGNALS`] signals are a link's, `changed` false when no edge touched
     /// it since the last sample (`Link::take_changed`): a filler skips them, leaving the
@@ -128,73 +135,116 @@ impl Sink for Declare {
 /// [`FillChecked`].
 const FILL_CAP: usize = 1 << 12;
 
-/// Fills the value array in signal order, over the last sample's values. The position wraps
-/// at the array's size, so no put can panic (the compiler then keeps the position in a
-/// register over a run of puts and drops the bound checks); `Machine::probe` checks once per
-/// sample that the walk filled exactly the layout, which is never larger than the array.
+/// A stage's signals that [`Sink::shift_stages`] can move on (an ICU moves 3): a filler
+/// keeps this many of stage 0's values to hand to stage 1.
+const CARRY: usize = 4;
+
+/// Positions a [`Fill`]'s change list holds: every position of 16 bits, so the list's end,
+/// taken as 16 bits, needs no bound check nor mask (one zero-extension where a wrap at
+/// [`FILL_CAP`] takes a copy and a mask); it never passes `FILL_CAP`. Only the list's first
+/// positions are ever written (a fresh allocation's pages are mapped when first touched).
+const LIST_CAP: usize = 1 << 16;
+
+/// Fills the value array in signal order, over the last sample's values, and lists the
+/// positions it changes as it goes. The position wraps at the array's size and the list's
+/// end at the list's ([`LIST_CAP`]), so no put can panic (the compiler then keeps them in
+/// registers over a run of puts and drops the bound checks); `Machine::probe` checks once
+/// per sample that the walk filled exactly the layout, which is never larger than the array.
 struct Fill<'a> {
     values: &'a mut [u64; FILL_CAP],
     pos: usize,
-    /// Per position: 1 when this sample's put changed its value (all zero before the walk).
-    flags: &'a mut [u8; FILL_CAP],
+    /// Positions listed in `changes` so far.
+    listed: usize,
+    /// This sample's changed positions, ascending, the first `listed` (past them: scratch).
+    changes: &'a mut [u32; LIST_CAP],
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
-    quiet: &'a mut [bool],
+    quiet: &'a [Cell<bool>],
     /// Per cluster: its ICU's ring position at the last sample.
-    ring: &'a mut [usize],
-    /// The array holds a whole earlier sample (unchanged links may be skipped).
-    filled_before: bool,
+    ring: &'a [Cell<usize>],
+    /// Stage 0's moving values at the last sample, kept by [`Sink::shift_stages`] for
+    /// [`Sink::move_stages`].
+    carry: [u64; CARRY],
 }
 
 impl Fill<'_> {
-    /// Sets position `dst` to the value at `src` and flags whether that changed it.
+    /// Sets position `at` to `v`, lists it when that changed it (no branch: the position is
+    /// always stored at the list's end, the end moved on only for a change) and returns the
+    /// value it held.
     #[inline(always)]
-    fn copy(&mut self, dst: usize, src: usize) {
-        let v = self.values[src % FILL_CAP];
-        let i = dst % FILL_CAP;
+    fn set(&mut self, at: usize, v: u64) -> u64 {
+        let i = at % FILL_CAP;
         let old = std::mem::replace(&mut self.values[i], v);
-        self.flags[i] = (old != v) as u8;
+        self.changes[self.listed as u16 as usize] = i as u32;
+        self.listed += (old != v) as usize;
+        old
     }
 
-    /// Puts `v` at the next position and flags whether it changed the value there (no
-    /// branch, and each put's stores independent of the last's).
+    /// The value at position `at`.
+    #[inline(always)]
+    fn get(&self, at: usize) -> u64 {
+        self.values[at % FILL_CAP]
+    }
+
+    /// True: a [`Fill`] fills over a whole earlier sample only (the first goes through
+    /// [`FillChecked`]), so no skip tests for it.
+    #[inline(always)]
+    fn filled_before(&self) -> bool {
+        true
+    }
+
+    /// Puts `v` at the next position, listing it when it changed the value there.
     #[inline(always)]
     fn put(&mut self, v: u64) {
-        let i = self.pos % FILL_CAP;
-        let old = std::mem::replace(&mut self.values[i], v);
-        self.flags[i] = (old != v) as u8;
+        self.set(self.pos, v);
         self.pos += 1;
     }
 }
 
-/// Fills a value array of any size (a layout past [`FILL_CAP`]) as [`Fill`] does, a bound
-/// check per value.
+/// Fills a value array of any size (a layout past [`FILL_CAP`], and every layout's first
+/// sample) as [`Fill`] does, a bound check per value.
 struct FillChecked<'a> {
     values: &'a mut [u64],
     pos: usize,
-    flags: &'a mut [u8],
-    quiet: &'a mut [bool],
-    ring: &'a mut [usize],
+    listed: usize,
+    /// At least as long as `values`.
+    changes: &'a mut [u32],
+    quiet: &'a [Cell<bool>],
+    ring: &'a [Cell<usize>],
     filled_before: bool,
+    carry: [u64; CARRY],
 }
 
 impl FillChecked<'_> {
+    /// [`Fill::set`], nothing set (zero returned) past the array.
     #[inline(always)]
-    fn copy(&mut self, dst: usize, src: usize) {
-        let Some(&v) = self.values.get(src) else {
-            return;
+    fn set(&mut self, at: usize, v: u64) -> u64 {
+        let Some(x) = self.values.get_mut(at) else {
+            return 0;
         };
-        if let (Some(x), Some(f)) = (self.values.get_mut(dst), self.flags.get_mut(dst)) {
-            *f = (*x != v) as u8;
-            *x = v;
+        let old = std::mem::replace(x, v);
+        if let Some(c) = self.changes.get_mut(self.listed) {
+            *c = at as u32;
+            self.listed += (old != v) as usize;
         }
+        old
     }
 
+    /// [`Fill::get`], zero past the array.
+    #[inline(always)]
+    fn get(&self, at: usize) -> u64 {
+        self.values.get(at).copied().unwrap_or(0)
+    }
+
+    /// The array holds a whole earlier sample (unchanged links may be skipped).
+    #[inline(always)]
+    fn filled_before(&self) -> bool {
+        self.filled_before
+    }
+
+    /// [`Fill::put`].
     #[inline(always)]
     fn put(&mut self, v: u64) {
-        if let (Some(x), Some(f)) = (self.values.get_mut(self.pos), self.flags.get_mut(self.pos)) {
-            *f = (*x != v) as u8;
-            *x = v;
-        }
+        self.set(self.pos, v);
         self.pos += 1;
     }
 }
@@ -221,11 +271,10 @@ macro_rules! fill_sink {
             }
             #[inline(always)]
             fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
-                let Some(was) = self.quiet.get_mut(u) else {
+                let Some(was) = self.quiet.get(u) else {
                     return false;
                 };
-                let skip = quiet && *was;
-                *was = quiet;
+                let skip = was.replace(quiet) && quiet;
                 if skip {
                     self.pos += n;
                 }
@@ -240,34 +289,58 @@ macro_rules! fill_sink {
                     width,
                     signals: n,
                 } = stages;
-                let Some(at) = self.ring.get_mut(c) else {
+                let Some(at) = self.ring.get(c) else {
                     return Shift::Walk;
                 };
-                let moved = std::mem::replace(at, position) != position;
-                if !self.filled_before {
+                let moved = at.replace(position) != position;
+                let fits = stride > 0 && width <= CARRY.min(stride) && n >= 2 * stride;
+                if !self.filled_before() || !fits {
                     return Shift::Walk;
                 }
                 if !moved {
                     self.pos += n;
                     return Shift::Held;
                 }
-                // Last stage first, so each takes the stage before it as it was.
-                let base = self.pos;
-                for k in (1..n / stride.max(1)).rev() {
-                    let at = base + k * stride;
-                    for j in 0..width {
-                        self.copy(at + j, at + j - stride);
-                    }
+                for j in 0..width {
+                    self.carry[j] = self.get(self.pos + j);
                 }
                 Shift::Moved
             }
             #[inline(always)]
-            fn derived(&mut self, n: usize) {
-                self.pos += n;
+            fn move_stages(&mut self, stages: Stages) {
+                let Stages {
+                    stride,
+                    width,
+                    signals: n,
+                    ..
+                } = stages;
+                // Stage k takes stage k − 1's value as it was, its own carried on to k + 1.
+                // Two stages a round, the second taking the first's values where they were
+                // read (carried from stage to stage, they would be copied between registers).
+                let mut carry = self.carry;
+                let mut at = self.pos;
+                let later = n / stride - 1;
+                for _ in 0..later / 2 {
+                    let mut mid = [0; CARRY];
+                    for (j, (m, c)) in mid.iter_mut().zip(&carry).enumerate().take(width) {
+                        *m = self.set(at + j, *c);
+                    }
+                    for (j, (c, m)) in carry.iter_mut().zip(&mid).enumerate().take(width) {
+                        *c = self.set(at + stride + j, *m);
+                    }
+                    at += 2 * stride;
+                }
+                if later % 2 == 1 {
+                    for (j, c) in carry.iter_mut().enumerate().take(width) {
+                        *c = self.set(at + j, *c);
+                    }
+                    at += stride;
+                }
+                self.pos = at - stride + width;
             }
             #[inline(always)]
             fn skip_unchanged_link(&mut self, changed: bool) -> bool {
-                let skip = !changed && self.filled_before;
+                let skip = !changed && self.filled_before();
                 if skip {
                     self.pos += LINK_SIGNALS;
                 }
@@ -278,35 +351,6 @@ macro_rules! fill_sink {
 }
 fill_sink!(Fill);
 fill_sink!(FillChecked);
-
-/// Lists the flagged positions of `flags` in `out`, ascending, and clears their flags; returns
-/// how many. Eight flags are read as one word, so the unflagged (some 85 % of a sample's
-/// values) cost a test per eight; a flagged word's eight 0/1 bytes are gathered into eight
-/// bits by one multiply ([`flag_bits`]). `out` holds a position per flag that can be set.
-fn list_flagged(flags: &mut [u8], out: &mut [u32]) -> usize {
-    let mut n = 0;
-    for (w, eight) in flags.chunks_exact_mut(8).enumerate() {
-        let word = u64::from_le_bytes((&*eight).try_into().expect("8 bytes"));
-        if word == 0 {
-            continue;
-        }
-        let mut m = flag_bits(word);
-        while m != 0 {
-            out[n] = (8 * w) as u32 + m.trailing_zeros();
-            n += 1;
-            m &= m - 1;
-        }
-        eight.fill(0);
-    }
-    n
-}
-
-/// Bit k set when byte k of `word` (little-endian; each byte 0 or 1) is 1: the multiply
-/// moves byte k's bit to bit 56 + k, and no two bytes' bits meet there or carry into it.
-#[inline(always)]
-fn flag_bits(word: u64) -> u32 {
-    (word.wrapping_mul(0x0102_0408_1020_4080) >> 56) as u32
-}
 
 impl Machine<'_> {
     /// Reports every unit's signals at the current cycle to `p`: the layout first (once per
@@ -319,67 +363,65 @@ impl Machine<'_> {
             p.declare(&d.0);
             let n = d.0.len();
             self.probe_values = vec![0; n.max(FILL_CAP)];
-            self.probe_flags = vec![0; n.max(FILL_CAP).next_multiple_of(8)];
-            self.probe_changes = vec![0; n];
+            self.probe_changes = vec![0; n.max(LIST_CAP)];
             self.scopes = Some(Scopes {
                 signals: n,
-                quiet: vec![false; quiet_units(self)],
+                quiet: vec![Cell::new(false); quiet_units(self)],
                 ring: self
                     .clusters
                     .iter()
-                    .map(|c| c.icu.ring_position())
+                    .map(|c| Cell::new(c.icu.ring_position()))
                     .collect(),
                 filled: false,
                 ..sc
             });
         }
-        let mut sc = self.scopes.take().expect("built above");
+        // The walk reads the scopes where they are, and the fillers update their state in
+        // them through cells; only the arrays are moved out.
         let mut values = std::mem::take(&mut self.probe_values);
-        let mut flags = std::mem::take(&mut self.probe_flags);
         let mut changes = std::mem::take(&mut self.probe_changes);
-        let mut quiet = std::mem::take(&mut sc.quiet);
-        let mut ring = std::mem::take(&mut sc.ring);
-        let n = sc.signals;
+        let sc = self.scopes.as_ref().expect("built above");
+        let (n, filled_before) = (sc.signals, sc.filled);
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
-            <&mut [u8; FILL_CAP]>::try_from(&mut flags[..]),
+            <&mut [u32; LIST_CAP]>::try_from(&mut changes[..]),
         );
-        let filled = match fixed {
-            (Ok(values), Ok(flags)) if n <= FILL_CAP => {
+        let (filled, changed) = match fixed {
+            (Ok(values), Ok(changes)) if n <= FILL_CAP && filled_before => {
                 let mut f = Fill {
                     values,
                     pos: 0,
-                    flags,
-                    quiet: &mut quiet,
-                    ring: &mut ring,
-                    filled_before: sc.filled,
+                    listed: 0,
+                    changes,
+                    quiet: &sc.quiet,
+                    ring: &sc.ring,
+                    carry: [0; CARRY],
                 };
-                self.walk(&sc, &mut f);
-                f.pos
+                self.walk(sc, &mut f);
+                (f.pos, f.listed)
             }
             _ => {
                 let mut f = FillChecked {
                     values: &mut values,
                     pos: 0,
-                    flags: &mut flags,
-                    quiet: &mut quiet,
-                    ring: &mut ring,
-                    filled_before: sc.filled,
+                    listed: 0,
+                    changes: &mut changes,
+                    quiet: &sc.quiet,
+                    ring: &sc.ring,
+                    filled_before,
+                    carry: [0; CARRY],
                 };
-                self.walk(&sc, &mut f);
-                f.pos
+                self.walk(sc, &mut f);
+                (f.pos, f.listed)
             }
         };
         assert_eq!(filled, n, "the walk's layout never changes");
-        sc.filled = true;
-        let changed = list_flagged(&mut flags[..n.next_multiple_of(8)], &mut changes);
         p.sample_changes(self.cycle, &values[..n], &changes[..changed]);
         self.probe_values = values;
-        self.probe_flags = flags;
         self.probe_changes = changes;
-        sc.quiet = quiet;
-        sc.ring = ring;
-        self.scopes = Some(sc);
+        if let Some(sc) = &mut self.scopes {
+            sc.filled = true;
+        }
     }
 
     /// Visits every signal in the waveform's order.
@@ -418,8 +460,9 @@ impl Machine<'_> {
             );
             p.bits(&sc.balancer, "retries", 32, self.balancer.stats.retries);
         }
-        for (c, cl) in self.clusters.iter().enumerate() {
-            let cs = &sc.clusters[c];
+        // The scopes are looked up without an index (a filler uses none of them, and then
+        // nothing is left of the lookups); `Scopes::new` made one per unit.
+        for (c, (cl, cs)) in self.clusters.iter().zip(&sc.clusters).enumerate() {
             if self.cfg.balance.enabled {
                 p.bits(
                     &cs.balance,
@@ -461,8 +504,7 @@ impl Machine<'_> {
                 }
                 self.links.probe(p, Section::BundleCluster(c));
             }
-            for (j, ctu) in cl.ctus.iter().enumerate() {
-                let s = &cs.ctus[j];
+            for (j, (ctu, s)) in cl.ctus.iter().zip(&cs.ctus).enumerate() {
                 // A finished CTU never ticks again: its six signals are final.
                 let u = self.clusters.len() + c * cl.ctus.len() + j;
                 if !p.skip_quiet(u, ctu.is_finished(), 6) {
@@ -483,23 +525,25 @@ impl Machine<'_> {
             // Four signals a stage (the count `skip_quiet` is told), all zero when empty; the
             // first three (valid, ray, patch) move on a stage as the pipeline advances.
             let depth = cl.icu.depth();
-            if p.skip_quiet(c, cl.icu.is_empty(), 4 * depth) {
-                // Empty now and at the last sample: all zero still.
-            } else if let shift @ (Shift::Held | Shift::Moved) = p.shift_stages(Stages {
+            let stages = Stages {
                 cluster: c,
                 position: cl.icu.ring_position(),
                 stride: 4,
                 width: 3,
                 signals: 4 * depth,
-            }) {
+            };
+            if p.skip_quiet(c, cl.icu.is_empty(), 4 * depth) {
+                // Empty now and at the last sample: all zero still.
+            } else if let shift @ (Shift::Held | Shift::Moved) = p.shift_stages(stages) {
                 if shift == Shift::Moved {
                     // Stage 0's new job and the result stage's t; the stages between moved.
-                    let (first, last) = (&cs.stages[0], &cs.stages[depth - 1]);
+                    let stage = |k: usize| cs.stages.get(k).map_or("", String::as_str);
+                    let (first, last) = (stage(0), stage(depth - 1));
                     let job = cl.icu.stage_job(0).map(|(j, _)| j);
                     let (ray, patch) = job.map_or((0, 0), |j| (j.ray as u64, j.patch as u64));
                     stage_job(p, first, job.is_some() as u64, ray, patch);
                     p.fixed_zero(first, "t", t_bits, t_frac);
-                    p.derived(4 * (depth - 2) + 3);
+                    p.move_stages(stages);
                     let t = cl.icu.stage_job(depth - 1).and_then(|(_, t)| t);
                     p.fixed(last, "t", t_bits, t_frac, t.unwrap_or(0));
                 }
@@ -543,9 +587,9 @@ pub(super) struct Scopes {
     /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
     signals: usize,
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
-    quiet: Vec<bool>,
+    quiet: Vec<Cell<bool>>,
     /// Per cluster: its ICU's ring position at the last sample.
-    ring: Vec<usize>,
+    ring: Vec<Cell<usize>>,
     /// The value array holds a whole sample (after the first fill).
     filled: bool,
 }
@@ -595,24 +639,66 @@ impl Scopes {
 mod tests {
     use super::*;
 
-    #[test]
-    fn flag_bits_gathers_every_pattern_of_eight_flags() {
-        for pattern in 0u32..256 {
-            let word = (0..8).fold(0u64, |w, k| w | (((pattern >> k) & 1) as u64) << (8 * k));
-            assert_eq!(flag_bits(word), pattern, "{word:#018x}");
-        }
+    /// Three stages of four signals (valid, ray, patch, t) at the last sample, and the ICU
+    /// advanced since: its ring moved on, stage 0 now empty, the result stage's t 4.
+    const LAST: [u64; 12] = [1, 7, 8, 0, 1, 5, 6, 0, 1, 5, 9, 3];
+    const STAGES: Stages = Stages {
+        cluster: 0,
+        position: 1,
+        stride: 4,
+        width: 3,
+        signals: 12,
+    };
+
+    /// Reports the advanced ICU to `f` as the walk does.
+    fn advance<S: Sink>(f: &mut S) {
+        assert_eq!(f.shift_stages(STAGES), Shift::Moved);
+        stage_job(f, "", 0, 0, 0);
+        f.fixed_zero("", "t", 8, 0);
+        f.move_stages(STAGES);
+        f.fixed("", "t", 8, 0, 4);
     }
 
+    /// The values after the move, and the positions that changed, ascending.
+    const NEXT: [u64; 12] = [0, 0, 0, 0, 1, 7, 8, 0, 1, 5, 6, 4];
+    const CHANGED: [u32; 7] = [0, 1, 2, 5, 6, 10, 11];
+
     #[test]
-    fn the_flagged_positions_are_listed_in_order_and_their_flags_cleared() {
-        let mut flags = vec![0u8; 64];
-        let set = [0usize, 7, 8, 13, 40, 41, 42, 63];
-        for &i in &set {
-            flags[i] = 1;
-        }
-        let mut out = vec![0u32; 64];
-        let n = list_flagged(&mut flags, &mut out);
-        assert_eq!(&out[..n], set.map(|i| i as u32));
-        assert!(flags.iter().all(|&f| f == 0));
+    fn both_fillers_move_an_advanced_icus_stages_listing_the_changes_ascending() {
+        let ring = [Cell::new(0)];
+        let mut values = vec![0u64; FILL_CAP];
+        values[..12].copy_from_slice(&LAST);
+        let mut changes = vec![0u32; LIST_CAP];
+        let mut f = Fill {
+            values: (&mut values[..]).try_into().expect("FILL_CAP values"),
+            pos: 0,
+            listed: 0,
+            changes: (&mut changes[..]).try_into().expect("LIST_CAP positions"),
+            quiet: &[],
+            ring: &ring,
+            carry: [0; CARRY],
+        };
+        advance(&mut f);
+        assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
+        assert_eq!(values[..12], NEXT);
+        assert_eq!(changes[..CHANGED.len()], CHANGED);
+
+        let ring = [Cell::new(0)];
+        let mut values = LAST.to_vec();
+        let mut changes = vec![0u32; 12];
+        let mut f = FillChecked {
+            values: &mut values,
+            pos: 0,
+            listed: 0,
+            changes: &mut changes,
+            quiet: &[],
+            ring: &ring,
+            filled_before: true,
+            carry: [0; CARRY],
+        };
+        advance(&mut f);
+        assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
+        assert_eq!(values, NEXT);
+        assert_eq!(changes[..CHANGED.len()], CHANGED);
     }
 }
