@@ -84,7 +84,8 @@ pub(super) enum Shift {
     Walk,
     /// The ring did not move: every stage as it was, all skipped.
     Held,
-    /// The later stages took the stages before them: the walk reports stage 0 and t.
+    /// The ring moved (stage 0's moving values kept): the walk reports stage 0, has the
+    /// later stages take the stages before them ([`Sink::move_stages`]), and reports t.
     Moved,
 }
 
@@ -536,7 +537,7 @@ impl Machine<'_> {
                 // Empty now and at the last sample: all zero still.
             } else if let shift @ (Shift::Held | Shift::Moved) = p.shift_stages(stages) {
                 if shift == Shift::Moved {
-                    // Stage 0's new job and the result stage's t; the stages between moved.
+                    // Stage 0's new job, the later stages moved, the result stage's t.
                     let stage = |k: usize| cs.stages.get(k).map_or("", String::as_str);
                     let (first, last) = (stage(0), stage(depth - 1));
                     let job = cl.icu.stage_job(0).map(|(j, _)| j);
