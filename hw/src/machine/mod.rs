@@ -70,9 +70,8 @@ pub struct Machine<'a> {
     scopes: Option<probe::Scopes>,
     /// The probe's value array, one per signal (allocated with the layout, reused).
     probe_values: Vec<u64>,
-    /// Per signal, whether the last walk changed its value (cleared as they are listed), and
-    /// the list of the changed positions.
-    probe_flags: Vec<u8>,
+    /// The positions of the last sample's changed values, ascending (listed by the walk as it
+    /// puts them; allocated with the layout, reused).
     probe_changes: Vec<u32>,
     /// Cycles the clock jumped over (not in the statistics, which must not depend on it).
     pub skipped_cycles: u64,
@@ -185,7 +184,6 @@ impl<'a> Machine<'a> {
             order,
             scopes: None,
             probe_values: Vec::new(),
-            probe_flags: Vec::new(),
             probe_changes: Vec::new(),
             skipped_cycles: 0,
             busy: Cell::new(0),
