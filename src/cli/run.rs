@@ -54,7 +54,7 @@ pub struct RunArgs {
     )]
     pub vcd_scope: Option<String>,
     /// How an FST's value changes are compressed: zlib (the default, about 18× smaller
-    /// than the VCD) or lz4 (about 8.6×, written faster; GTKWave's `vcd2fst --fastpack`).
+    /// than the VCD) or lz4 (about 8.5×, written faster; GTKWave's `vcd2fst --fastpack`).
     /// Only with an FST (`--wave FILE.fst`).
     #[arg(long, value_enum, value_name = "PACK", requires = "waveform")]
     pub fst_pack: Option<FstPack>,

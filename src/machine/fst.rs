@@ -22,8 +22,8 @@ const FST_FLUSH_BYTES: usize = 16 << 20;
 
 /// How the sections are compressed for each [`FstPack`]: zlib format through libdeflate at
 /// level 1 — the fastest level, which makes the FST ~18× smaller than the VCD, cheaper than
-/// miniz_oxide's zlib level 1 (~13×) — or LZ4 (~8.6×, short of issue 13's 10×, and a tenth
-/// of the compressor's work; BENCHMARKS.md).
+/// miniz_oxide's zlib level 1 (~13×) — or LZ4 (~8.5×, short of issue 13's 10×, for about a
+/// quarter of the compressor's work; BENCHMARKS.md).
 fn compression(pack: FstPack) -> FstCompression {
     match pack {
         FstPack::Zlib => FstCompression::Deflate(1),

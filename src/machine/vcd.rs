@@ -194,8 +194,8 @@ pub enum FstPack {
     /// at the paper's scale.
     #[default]
     Zlib,
-    /// LZ4: about 8.6× smaller than the VCD, compressed several times faster (the
-    /// compressor thread's work falls to a tenth).
+    /// LZ4: about 8.5× smaller than the VCD, compressed several times faster (the
+    /// compressor thread's work falls to about a quarter).
     Lz4,
 }
 
