@@ -1328,6 +1328,7 @@ enum LineClass {
 }
 
 impl LineFormat {
+    /// Slot `s`'s format (hidden when its signal is outside the scope filter).
     fn of(s: &Slot) -> Self {
         let class = match s.kind {
             _ if !s.declared => LineClass::Hidden,
