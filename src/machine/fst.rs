@@ -109,6 +109,9 @@ impl FstBody {
         pack: FstPack,
     ) -> io::Result<Self> {
         w.set_compression(compression(pack));
+        // The probe lists only values that changed: no change repeats the last value, so
+        // the crate's test for one is never true.
+        w.set_deduplicate(false);
         w.compress_in_background().map_err(fst_err)?;
         let sigs = handles.iter().map(|h| Sig {
             id: h.id,
@@ -158,6 +161,12 @@ impl FstBody {
         self.stamps += 1;
         self.w.signal_changes_u64(&self.batch).map_err(fst_err)?;
         self.batch.clear();
+        self.write_texts()?;
+        Ok(true)
+    }
+
+    /// Writes the queued text changes (at the time step already written).
+    fn write_texts(&mut self) -> io::Result<()> {
         for &(i, v) in &self.text_batch {
             let id = self.sigs[i].id.expect("queued texts are declared");
             let lines = &self.text_bits[i];
@@ -167,7 +176,7 @@ impl FstBody {
                 .map_err(fst_err)?;
         }
         self.text_batch.clear();
-        Ok(true)
+        Ok(())
     }
 }
 
@@ -189,11 +198,30 @@ impl Body for FstBody {
     /// Takes the sample's changes and writes time `t` and the changed declared values
     /// (nothing when none is declared); cuts a section past [`FST_FLUSH_BYTES`].
     fn write_changes(&mut self, t: u64, changes: &[u64]) -> io::Result<()> {
+        // Each integer change goes to the crate as it comes (time `t` first, once); the
+        // texts after them (each signal's chain is its own, so the order between signals
+        // within a time step does not show in the file).
+        let mut stamped = false;
         for (i, v) in pairs(changes) {
             self.prev[i] = v;
-            self.take(i, v);
+            let s = self.sigs[i];
+            let Some(id) = s.id else {
+                continue;
+            };
+            if !stamped {
+                stamped = true;
+                self.w.time_change(t).map_err(fst_err)?;
+                self.stamps += 1;
+            }
+            self.size += s.cost as usize;
+            if s.text {
+                self.text_batch.push((i, v));
+            } else {
+                self.w.signal_change_u64(id, v).map_err(fst_err)?;
+            }
         }
-        if self.write_batch(t)? && self.stamps.is_multiple_of(256) && self.size > FST_FLUSH_BYTES {
+        self.write_texts()?;
+        if stamped && self.stamps.is_multiple_of(256) && self.size > FST_FLUSH_BYTES {
             self.size = 0;
             self.w.flush().map_err(fst_err)?;
         }
