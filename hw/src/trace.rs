@@ -36,12 +36,21 @@ pub trait Probe {
     fn sample(&mut self, t: u64, values: &[u64]);
     /// The values at cycle `t` as [`Probe::sample`] takes them, with `changed`: the
     /// positions, ascending, whose value differs from the previous sample's (at the first
-    /// sample, those not zero). A probe that keeps the values of the samples it saw writes
+    /// sample, those not zero; with [`Probe::shifts_stages`], also [`StageShift`] entries).
+    /// A probe that keeps the values of the samples it saw writes
     /// only these; the default hands `values` to [`Probe::sample`]. The machine calls this
     /// one, having found the changes while filling the array.
     fn sample_changes(&mut self, t: u64, values: &[u64], changed: &[u32]) {
         let _ = changed;
         self.sample(t, values);
+    }
+    /// True when the probe moves an advanced pipeline's later stages itself (the same answer
+    /// for the whole run): [`Probe::sample_changes`]'s lists then hold one [`StageShift`]
+    /// entry in place of their changes (apply a list with [`apply_changes`]), and `values` is
+    /// not kept at their positions. It saves the machine a put per moving signal of every
+    /// later stage of every advanced ICU, and the hand-off of their changes.
+    fn shifts_stages(&self) -> bool {
+        false
     }
     /// True when the probe cannot go on (a waveform past its size limit): the machine then
     /// ends the run early and the caller reports the probe's error.
@@ -56,4 +65,224 @@ pub struct NoProbe;
 impl Probe for NoProbe {
     fn declare(&mut self, _: &[SignalDecl]) {}
     fn sample(&mut self, _: u64, _: &[u64]) {}
+}
+
+/// The flag of a change-list entry that is a [`StageShift`], not a position (positions are
+/// below it).
+pub const STAGE_SHIFT: u32 = 1 << 31;
+
+/// An advanced pipeline's later stages, as one change-list entry: a probe whose
+/// [`Probe::shifts_stages`] is true gets this in place of their changes, and moves them itself.
+/// Stage k (1..=`later`) starts at `at + (k − 1)·stride`; its first `width` signals take the
+/// values stage k − 1 had at the last sample. The entry comes before stage 0's changes (it
+/// needs stage 0's last values); the shift's changes go before the first position at or past
+/// `at` (ascending order kept).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct StageShift {
+    /// Position of stage 1's first signal.
+    pub at: usize,
+    /// Signals per stage (1..=15).
+    pub stride: usize,
+    /// Signals of a stage that move (1..=[`SHIFT_WIDTH`], at most `stride`).
+    pub width: usize,
+    /// Stages after stage 0 (1..=255, spanning at most [`SHIFT_SPAN`] positions).
+    pub later: usize,
+}
+
+/// The most signals a stage moves in a [`StageShift`].
+pub const SHIFT_WIDTH: usize = 4;
+
+/// The most positions a [`StageShift`] spans, stage 1's first to the last stage's last
+/// moving signal (a mask of its changes is one `u64`).
+pub const SHIFT_SPAN: usize = 64;
+
+/// A change-list entry that is not well formed: a position or a [`StageShift`] outside the
+/// layout.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BadShift(pub u32);
+
+impl std::fmt::Display for BadShift {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "a change-list entry {:#x} outside the layout", self.0)
+    }
+}
+
+impl std::error::Error for BadShift {}
+
+impl From<BadShift> for std::io::Error {
+    fn from(e: BadShift) -> Self {
+        std::io::Error::other(e)
+    }
+}
+
+impl StageShift {
+    /// The entry: the flag, width (bits 28–30), stride (24–27), later (16–23), at (0–15).
+    /// None when a field does not fit (the walk then moves the stages itself).
+    pub fn encode(self) -> Option<u32> {
+        let fits = (1..=15).contains(&self.stride)
+            && (1..=SHIFT_WIDTH.min(self.stride)).contains(&self.width)
+            && (1..=255).contains(&self.later)
+            && self.span() <= SHIFT_SPAN
+            && self.at >= self.stride
+            && self.at < 1 << 16;
+        fits.then(|| {
+            STAGE_SHIFT
+                | (self.width as u32) << 28
+                | (self.stride as u32) << 24
+                | (self.later as u32) << 16
+                | self.at as u32
+        })
+    }
+
+    /// The shift of entry `code` (its flag set), when it lies inside `n` values.
+    pub fn decode(code: u32, n: usize) -> Option<StageShift> {
+        let s = StageShift {
+            at: (code & 0xFFFF) as usize,
+            stride: (code >> 24 & 0xF) as usize,
+            width: (code >> 28 & 0x7) as usize,
+            later: (code >> 16 & 0xFF) as usize,
+        };
+        let fits = code & STAGE_SHIFT != 0 && s.encode() == Some(code) && s.at + s.span() <= n;
+        fits.then_some(s)
+    }
+
+    /// Positions from stage 1's first to the last stage's last moving signal.
+    #[inline(always)]
+    pub fn span(&self) -> usize {
+        self.later.saturating_sub(1) * self.stride + self.width
+    }
+
+    /// Stage 0's moving values in `last` (to be taken before stage 0's changes).
+    #[inline]
+    fn carry(&self, last: &[u64]) -> [u64; SHIFT_WIDTH] {
+        let mut c = [0; SHIFT_WIDTH];
+        let at = self.at - self.stride;
+        c[..self.width].copy_from_slice(&last[at..at + self.width]);
+        c
+    }
+}
+
+/// What takes a sample's changes from [`apply_changes`]: the last sample's values, kept
+/// here, and each change in turn.
+pub trait ChangeSink {
+    type Error: From<BadShift>;
+    /// The last sample's values (as the changes so far left them).
+    fn last(&mut self) -> &mut [u64];
+    /// Position `i` changed to `v` (already stored in [`ChangeSink::last`]).
+    fn change(&mut self, i: usize, v: u64) -> Result<(), Self::Error>;
+}
+
+/// Applies a sample's change list to `sink`: each entry (a position and its new value, or a
+/// [`StageShift`] and any value) in turn, every changed position handed to
+/// [`ChangeSink::change`] with its new value, ascending. A shift is expanded in place: its
+/// changes before the first position at or past its `at` (or at the end). An entry outside
+/// the values is an error ([`BadShift`]). Past one compare a plain position costs what it
+/// did before shifts: the shifts are taken out of line.
+#[inline(always)]
+pub fn apply_changes<S: ChangeSink>(
+    sink: &mut S,
+    entries: impl IntoIterator<Item = (u64, u64)>,
+) -> Result<(), S::Error> {
+    // The first position that needs more than a store: a shift entry (flagged positions are
+    // all past it) or, one pending, its `at`.
+    let mut next = STAGE_SHIFT as u64;
+    let mut pending = None;
+    for (i, v) in entries {
+        if i >= next {
+            if let Some(p) = pending.take() {
+                shift(sink, p)?;
+                next = STAGE_SHIFT as u64;
+            }
+            if i >= next {
+                let p = start_shift(sink.last(), i)?;
+                next = p.0.at as u64;
+                pending = Some(p);
+                continue;
+            }
+        }
+        let Some(x) = sink.last().get_mut(i as usize) else {
+            return Err(BadShift(i as u32).into());
+        };
+        *x = v;
+        sink.change(i as usize, v)?;
+    }
+    match pending {
+        Some(p) => shift(sink, p),
+        None => Ok(()),
+    }
+}
+
+/// The shift of entry `code` inside `last`, with stage 0's last values.
+#[inline(never)]
+fn start_shift(last: &[u64], code: u64) -> Result<(StageShift, [u64; SHIFT_WIDTH]), BadShift> {
+    let code = u32::try_from(code).unwrap_or(u32::MAX);
+    let s = StageShift::decode(code, last.len()).ok_or(BadShift(code))?;
+    Ok((s, s.carry(last)))
+}
+
+/// Moves a shift's later stages in `sink`'s values, stage 0's last values into stage 1 and
+/// so on (one tight pass noting the changed positions in a mask: a shift spans at most
+/// [`SHIFT_SPAN`] positions), then hands each change to [`ChangeSink::change`], ascending.
+#[inline(never)]
+fn shift<S: ChangeSink>(
+    sink: &mut S,
+    (s, mut carry): (StageShift, [u64; SHIFT_WIDTH]),
+) -> Result<(), S::Error> {
+    let Some(w) = sink.last().get_mut(s.at..s.at + s.span()) else {
+        return Err(BadShift(s.at as u32).into());
+    };
+    let mut mask = match s.width {
+        1 => move_stages::<1>(w, &mut carry, s.later, s.stride),
+        2 => move_stages::<2>(w, &mut carry, s.later, s.stride),
+        3 => move_stages::<3>(w, &mut carry, s.later, s.stride),
+        _ => move_stages::<SHIFT_WIDTH>(w, &mut carry, s.later, s.stride),
+    };
+    while mask != 0 {
+        let p = s.at + mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        let v = sink.last()[p];
+        sink.change(p, v)?;
+    }
+    Ok(())
+}
+
+/// Moves `later` stages of `stride` signals in `w` (stage 1 first), the first `W` of each
+/// taking the stage before's (`carry`: stage 0's): the mask of the positions changed.
+#[inline(always)]
+fn move_stages<const W: usize>(
+    w: &mut [u64],
+    carry: &mut [u64; SHIFT_WIDTH],
+    later: usize,
+    stride: usize,
+) -> u64 {
+    let mut c = [0u64; W];
+    c.copy_from_slice(&carry[..W]);
+    let (mut mask, mut off) = (0u64, 0usize);
+    for _ in 0..later {
+        let Some(stage) = w.get_mut(off..off + W) else {
+            break;
+        };
+        for j in 0..W {
+            let old = std::mem::replace(&mut stage[j], c[j]);
+            mask |= ((old != c[j]) as u64) << ((off + j) % 64);
+            c[j] = old;
+        }
+        off += stride;
+    }
+    mask
+}
+
+/// A [`ChangeSink`] that only keeps the values.
+pub struct KeepValues<'a>(pub &'a mut [u64]);
+
+impl ChangeSink for KeepValues<'_> {
+    type Error = BadShift;
+    #[inline(always)]
+    fn last(&mut self) -> &mut [u64] {
+        self.0
+    }
+    #[inline(always)]
+    fn change(&mut self, _: usize, _: u64) -> Result<(), BadShift> {
+        Ok(())
+    }
 }

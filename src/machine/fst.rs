@@ -10,8 +10,9 @@
 //! while the next one fills, so the file's bytes do not depend on the timing. Sections are
 //! cut every [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
 
-use super::vcd::{pairs, Body, BodyEnd, BodyError, Clock, FstPack, ThreadBody, Window};
+use super::vcd::{entries, Body, BodyEnd, BodyError, Clock, FstPack, ThreadBody, Window};
 use fst_writer::{FstBodyWriter, FstCompression, FstSignalId};
+use shellsim_hw::trace::{apply_changes, ChangeSink};
 use std::fs::File;
 use std::io::{self, BufWriter};
 
@@ -56,6 +57,9 @@ pub(crate) struct FstBody {
     /// The last sample's values and the window.
     prev: Vec<u64>,
     clock: Clock,
+    /// The sample being written, and whether its time change is out.
+    now: u64,
+    stamped: bool,
     /// One sample's integer changes, handed over together (room for every signal).
     batch: Vec<(FstSignalId, u64)>,
     /// One sample's text changes (probe position, value).
@@ -131,6 +135,8 @@ impl FstBody {
             order,
             prev: vec![0; handles.len()],
             clock: Clock::default(),
+            now: 0,
+            stamped: false,
             batch: Vec::with_capacity(handles.len()),
             text_batch: Vec::with_capacity(handles.len()),
             size: 0,
@@ -201,29 +207,44 @@ impl Body for FstBody {
         // Each integer change goes to the crate as it comes (time `t` first, once); the
         // texts after them (each signal's chain is its own, so the order between signals
         // within a time step does not show in the file).
-        let mut stamped = false;
-        for (i, v) in pairs(changes) {
-            self.prev[i] = v;
-            let s = self.sigs[i];
-            let Some(id) = s.id else {
-                continue;
-            };
-            if !stamped {
-                stamped = true;
-                self.w.time_change(t).map_err(fst_err)?;
-                self.stamps += 1;
-            }
-            self.size += s.cost as usize;
-            if s.text {
-                self.text_batch.push((i, v));
-            } else {
-                self.w.signal_change_u64(id, v).map_err(fst_err)?;
-            }
-        }
+        (self.now, self.stamped) = (t, false);
+        apply_changes(self, entries(changes))?;
+        let stamped = self.stamped;
         self.write_texts()?;
         if stamped && self.stamps.is_multiple_of(256) && self.size > FST_FLUSH_BYTES {
             self.size = 0;
             self.w.flush().map_err(fst_err)?;
+        }
+        Ok(())
+    }
+}
+
+impl ChangeSink for FstBody {
+    type Error = io::Error;
+
+    #[inline(always)]
+    fn last(&mut self) -> &mut [u64] {
+        &mut self.prev
+    }
+
+    /// A declared signal's change (after time `now`, once per sample): an integer to the
+    /// crate now, a text queued for after the sample's integers.
+    #[inline(always)]
+    fn change(&mut self, i: usize, v: u64) -> io::Result<()> {
+        let s = self.sigs[i];
+        let Some(id) = s.id else {
+            return Ok(());
+        };
+        if !self.stamped {
+            self.stamped = true;
+            self.w.time_change(self.now).map_err(fst_err)?;
+            self.stamps += 1;
+        }
+        self.size += s.cost as usize;
+        if s.text {
+            self.text_batch.push((i, v));
+        } else {
+            self.w.signal_change_u64(id, v).map_err(fst_err)?;
         }
         Ok(())
     }

@@ -42,7 +42,9 @@ use fst_writer::{
     FstFileType, FstHeaderWriter, FstInfo, FstScopeType, FstSignalId, FstSignalType,
     FstVarDirection, FstVarType,
 };
-use shellsim_hw::trace::{Probe, SignalDecl, SignalKind as HwKind};
+use shellsim_hw::trace::{
+    apply_changes, ChangeSink, KeepValues, Probe, SignalDecl, SignalKind as HwKind, STAGE_SHIFT,
+};
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -376,8 +378,9 @@ impl SampleStream {
         head[0] = t;
         head[1] = changed.len() as u64;
         for (p, &i) in pairs.chunks_exact_mut(2).zip(changed) {
+            // A stage shift (`Probe::shifts_stages`) is an entry, not a position: no value.
             p[0] = i as u64;
-            p[1] = values[i as usize];
+            p[1] = values.get(i as usize).copied().unwrap_or(0);
         }
     }
 
@@ -477,31 +480,26 @@ pub(crate) trait Body {
         }
         match step {
             Step::Changes => self.write_changes(t, changes),
-            Step::Take => {
-                apply(self.state().1, changes);
-                Ok(())
-            }
+            Step::Take => apply(self.state().1, changes),
             Step::TakeAndOpen => {
-                apply(self.state().1, changes);
+                apply(self.state().1, changes)?;
                 self.dump_all(t)
             }
         }
     }
 }
 
-/// A sample record's changes as (position, value): the words `SampleStream::push` wrote,
-/// position and value in turn.
-#[inline]
-pub(crate) fn pairs(changes: &[u64]) -> impl Iterator<Item = (usize, u64)> + '_ {
-    changes.chunks_exact(2).map(|c| (c[0] as usize, c[1]))
+/// A sample record's entries as (position, value): the words `SampleStream::push` wrote,
+/// position and value in turn (or a stage shift and zero, which [`apply_changes`] expands).
+#[inline(always)]
+pub(crate) fn entries(record: &[u64]) -> impl Iterator<Item = (u64, u64)> + '_ {
+    record.chunks_exact(2).map(|c| (c[0], c[1]))
 }
 
-/// Sets the values at the positions of `changes` (a sample record's, [`pairs`]).
-#[inline]
-pub(crate) fn apply(values: &mut [u64], changes: &[u64]) {
-    for (i, v) in pairs(changes) {
-        values[i] = v;
-    }
+/// Applies a sample record's changes to `values` (the last sample's), its stage shifts
+/// expanded, writing nothing.
+pub(crate) fn apply(values: &mut [u64], record: &[u64]) -> io::Result<()> {
+    apply_changes(&mut KeepValues(values), entries(record)).map_err(io::Error::from)
 }
 
 /// The VCD body, on its thread: the last sample's values, the window, and the formatted
@@ -516,6 +514,9 @@ struct VcdBody {
     /// The last sample's values (those holding now).
     prev: Vec<u64>,
     clock: Clock,
+    /// The sample being written, and whether its `#t` is out.
+    now: u64,
+    stamped: bool,
     samples: u64,
     timestamps: u64,
     /// The header, written first.
@@ -657,18 +658,30 @@ impl Body for VcdBody {
 
     /// Each change taken, and the declared ones' lines after `#t`.
     fn write_changes(&mut self, t: u64, changes: &[u64]) -> io::Result<()> {
-        let mut stamped = false;
-        for (i, v) in pairs(changes) {
-            self.prev[i] = v;
-            let f = self.formats[i];
-            if f.class != LineClass::Hidden {
-                if !stamped {
-                    stamped = true;
-                    self.timestamps += 1;
-                    self.put_time(t)?;
-                }
-                self.put_value(i, &f, v)?;
+        (self.now, self.stamped) = (t, false);
+        apply_changes(self, entries(changes))
+    }
+}
+
+impl ChangeSink for VcdBody {
+    type Error = io::Error;
+
+    #[inline(always)]
+    fn last(&mut self) -> &mut [u64] {
+        &mut self.prev
+    }
+
+    /// The line of a declared signal, after `#t` (once per sample).
+    #[inline(always)]
+    fn change(&mut self, i: usize, v: u64) -> io::Result<()> {
+        let f = self.formats[i];
+        if f.class != LineClass::Hidden {
+            if !self.stamped {
+                self.stamped = true;
+                self.timestamps += 1;
+                self.put_time(self.now)?;
             }
+            self.put_value(i, &f, v)?;
         }
         Ok(())
     }
@@ -984,6 +997,8 @@ impl VcdWriter {
             declared: order.clone(),
             prev: vec![0; self.slots.len()],
             clock: Clock::default(),
+            now: 0,
+            stamped: false,
             samples: 0,
             timestamps: 0,
             head,
@@ -1075,7 +1090,10 @@ impl Probe for VcdWriter {
 
     fn sample_changes(&mut self, t: u64, values: &[u64], changed: &[u32]) {
         let n = values.len();
-        if changed.len() > n || changed.last().is_some_and(|&i| i as usize >= n) {
+        // A stage shift last (its ICU the layout's last signals, its t unchanged) is checked
+        // on the thread, with every shift (`apply_changes`).
+        let past = |&i: &u32| i & STAGE_SHIFT == 0 && i as usize >= n;
+        if changed.len() > n || changed.last().is_some_and(past) {
             self.fail(format!(
                 "cycle {t}: a change list of {} positions up to {:?} for {n} values",
                 changed.len(),
@@ -1086,6 +1104,11 @@ impl Probe for VcdWriter {
         if self.accepts(t, n, false) {
             self.queue(t, values, changed);
         }
+    }
+
+    /// The thread moves an advanced ICU's later stages (`apply_changes`).
+    fn shifts_stages(&self) -> bool {
+        true
     }
 
     fn stop(&self) -> bool {

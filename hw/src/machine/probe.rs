@@ -14,7 +14,7 @@ use std::cell::Cell;
 
 use super::links::{probe_link, Section};
 use super::Machine;
-use crate::trace::{Probe, SignalDecl, SignalKind};
+use crate::trace::{Probe, SignalDecl, SignalKind, StageShift};
 use crate::units::ctu::CtuState;
 
 /// What the walk reports a signal to: the layout (first sample) or the value array.
@@ -165,6 +165,10 @@ struct Fill<'a> {
     /// Stage 0's moving values at the last sample, kept by [`Sink::shift_stages`] for
     /// [`Sink::move_stages`].
     carry: [u64; CARRY],
+    /// The probe moves the later stages itself ([`Probe::shifts_stages`]).
+    shifts: bool,
+    /// The last [`Sink::shift_stages`] listed a [`StageShift`] (its stages not moved here).
+    shifted: bool,
 }
 
 impl Fill<'_> {
@@ -199,6 +203,13 @@ impl Fill<'_> {
         self.set(self.pos, v);
         self.pos += 1;
     }
+
+    /// Lists the entry `code` (a [`StageShift`]) whatever the values.
+    #[inline(always)]
+    fn list(&mut self, code: u32) {
+        self.changes[self.listed as u16 as usize] = code;
+        self.listed += 1;
+    }
 }
 
 /// Fills a value array of any size (a layout past [`FILL_CAP`], and every layout's first
@@ -213,6 +224,8 @@ struct FillChecked<'a> {
     ring: &'a [Cell<usize>],
     filled_before: bool,
     carry: [u64; CARRY],
+    shifts: bool,
+    shifted: bool,
 }
 
 impl FillChecked<'_> {
@@ -247,6 +260,16 @@ impl FillChecked<'_> {
     fn put(&mut self, v: u64) {
         self.set(self.pos, v);
         self.pos += 1;
+    }
+
+    /// [`Fill::list`] (the list is as long as the array: a shift stands for more positions
+    /// than it takes).
+    #[inline(always)]
+    fn list(&mut self, code: u32) {
+        if let Some(c) = self.changes.get_mut(self.listed) {
+            *c = code;
+            self.listed += 1;
+        }
     }
 }
 
@@ -302,6 +325,19 @@ macro_rules! fill_sink {
                     self.pos += n;
                     return Shift::Held;
                 }
+                // The probe moves them itself: one entry, ahead of stage 0's changes.
+                let shift = StageShift {
+                    at: self.pos + stride,
+                    stride,
+                    width,
+                    later: n / stride - 1,
+                };
+                self.shifted = false;
+                if let (true, Some(code)) = (self.shifts, shift.encode()) {
+                    self.list(code);
+                    self.shifted = true;
+                    return Shift::Moved;
+                }
                 for j in 0..width {
                     self.carry[j] = self.get(self.pos + j);
                 }
@@ -318,9 +354,13 @@ macro_rules! fill_sink {
                 // Stage k takes stage k − 1's value as it was, its own carried on to k + 1.
                 // Two stages a round, the second taking the first's values where they were
                 // read (carried from stage to stage, they would be copied between registers).
+                let later = n / stride - 1;
+                if self.shifted {
+                    self.pos += (later - 1) * stride + width;
+                    return;
+                }
                 let mut carry = self.carry;
                 let mut at = self.pos;
-                let later = n / stride - 1;
                 for _ in 0..later / 2 {
                     let mut mid = [0; CARRY];
                     for (j, (m, c)) in mid.iter_mut().zip(&carry).enumerate().take(width) {
@@ -383,6 +423,7 @@ impl Machine<'_> {
         let mut changes = std::mem::take(&mut self.probe_changes);
         let sc = self.scopes.as_ref().expect("built above");
         let (n, filled_before) = (sc.signals, sc.filled);
+        let shifts = p.shifts_stages();
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
             <&mut [u32; LIST_CAP]>::try_from(&mut changes[..]),
@@ -397,6 +438,8 @@ impl Machine<'_> {
                     quiet: &sc.quiet,
                     ring: &sc.ring,
                     carry: [0; CARRY],
+                    shifts,
+                    shifted: false,
                 };
                 self.walk(sc, &mut f);
                 (f.pos, f.listed)
@@ -411,6 +454,8 @@ impl Machine<'_> {
                     ring: &sc.ring,
                     filled_before,
                     carry: [0; CARRY],
+                    shifts,
+                    shifted: false,
                 };
                 self.walk(sc, &mut f);
                 (f.pos, f.listed)
@@ -639,6 +684,7 @@ impl Scopes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::trace::KeepValues;
 
     /// Three stages of four signals (valid, ray, patch, t) at the last sample, and the ICU
     /// advanced since: its ring moved on, stage 0 now empty, the result stage's t 4.
@@ -678,6 +724,8 @@ mod tests {
             quiet: &[],
             ring: &ring,
             carry: [0; CARRY],
+            shifts: false,
+            shifted: false,
         };
         advance(&mut f);
         assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
@@ -699,10 +747,89 @@ mod tests {
             ring: &ring,
             filled_before: true,
             carry: [0; CARRY],
+            shifts: false,
+            shifted: false,
         };
         advance(&mut f);
         assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
         assert_eq!(values, NEXT);
         assert_eq!(changes[..CHANGED.len()], CHANGED);
+    }
+
+    /// With a probe that shifts stages itself, the fill lists one [`StageShift`] ahead of
+    /// stage 0's changes and leaves the later stages as they were; [`crate::trace::apply_changes`] on the
+    /// last sample then gives the same values and the same changes, ascending.
+    #[test]
+    fn a_shifting_probe_gets_one_entry_that_expands_to_the_same_changes() {
+        let ring = [Cell::new(0)];
+        let mut values = vec![0u64; FILL_CAP];
+        values[..12].copy_from_slice(&LAST);
+        let mut changes = vec![0u32; LIST_CAP];
+        let mut f = Fill {
+            values: (&mut values[..]).try_into().expect("FILL_CAP values"),
+            pos: 0,
+            listed: 0,
+            changes: (&mut changes[..]).try_into().expect("LIST_CAP positions"),
+            quiet: &[],
+            ring: &ring,
+            carry: [0; CARRY],
+            shifts: true,
+            shifted: false,
+        };
+        advance(&mut f);
+        let listed = f.listed;
+        assert_eq!(f.pos, 12);
+        let shift = StageShift {
+            at: 4,
+            stride: 4,
+            width: 3,
+            later: 2,
+        };
+        // The shift, stage 0's three changes (1, 7, 8 → 0), the result stage's t (3 → 4).
+        let want = [shift.encode().expect("fits"), 0, 1, 2, 11];
+        assert_eq!(changes[..listed], want);
+        // Stages 1 and 2 (but t) untouched here.
+        assert_eq!(values[4..11], LAST[4..11]);
+        let mut last = LAST.to_vec();
+        let entries = changes[..listed]
+            .iter()
+            .map(|&c| (c as u64, values.get(c as usize).copied().unwrap_or(0)));
+        let mut got = Listed(&mut last, Vec::new());
+        crate::trace::apply_changes(&mut got, entries).expect("well formed");
+        let got = got.1;
+        assert_eq!(last, NEXT);
+        assert_eq!(got, CHANGED);
+    }
+
+    /// The values, and the positions changed, in the order given.
+    struct Listed<'a>(&'a mut [u64], Vec<u32>);
+
+    impl crate::trace::ChangeSink for Listed<'_> {
+        type Error = crate::trace::BadShift;
+        fn last(&mut self) -> &mut [u64] {
+            self.0
+        }
+        fn change(&mut self, i: usize, _: u64) -> Result<(), Self::Error> {
+            self.1.push(i as u32);
+            Ok(())
+        }
+    }
+
+    /// A shift entry that does not fit the values is an error, not a panic.
+    #[test]
+    fn a_shift_outside_the_values_is_an_error() {
+        let shift = StageShift {
+            at: 4,
+            stride: 4,
+            width: 3,
+            later: 8,
+        };
+        let code = shift.encode().expect("fits");
+        let mut last = vec![0u64; 12];
+        for (entry, bad) in [((code as u64, 0), code), ((12, 1), 12)] {
+            let r = crate::trace::apply_changes(&mut KeepValues(&mut last), [entry]);
+            assert_eq!(r, Err(crate::trace::BadShift(bad)));
+        }
+        assert_eq!(StageShift::decode(code, 40), Some(shift));
     }
 }
