@@ -536,6 +536,11 @@ struct StageProbe {
     values: Vec<u64>,
     stages: Vec<Vec<[usize; 4]>>,
     t_width: u32,
+    /// It moves the later stages itself (`Probe::shifts_stages`), applying each change list
+    /// to the values it keeps; else it takes the machine's whole arrays.
+    shifts: bool,
+    /// Shift entries seen.
+    shift_entries: u64,
 }
 
 impl shellsim_hw::trace::Probe for StageProbe {
@@ -563,6 +568,21 @@ impl shellsim_hw::trace::Probe for StageProbe {
     fn sample(&mut self, _: u64, values: &[u64]) {
         self.values.copy_from_slice(values);
     }
+    fn sample_changes(&mut self, t: u64, values: &[u64], changed: &[u32]) {
+        if !self.shifts {
+            return self.sample(t, values);
+        }
+        let flag = shellsim_hw::trace::STAGE_SHIFT;
+        self.shift_entries += changed.iter().filter(|&&c| c & flag != 0).count() as u64;
+        let entries = changed
+            .iter()
+            .map(|&c| (c as u64, values.get(c as usize).copied().unwrap_or(0)));
+        let mut keep = shellsim_hw::trace::KeepValues(&mut self.values);
+        shellsim_hw::trace::apply_changes(&mut keep, entries).expect("well-formed lists");
+    }
+    fn shifts_stages(&self) -> bool {
+        self.shifts
+    }
 }
 
 /// The waveform's ICU stages — moved along the pipeline by the walk itself when the ring
@@ -570,6 +590,17 @@ impl shellsim_hw::trace::Probe for StageProbe {
 /// has them (small machine, tiny buffers, balancing on; the machine stepped by hand).
 #[test]
 fn the_waveforms_icu_stages_are_the_icus_own_at_every_cycle() {
+    stages_are_the_icus_own(false);
+}
+
+/// The same when the probe moves the later stages itself from one shift entry per advanced
+/// ICU (as the VCD's thread does): every value it keeps is the ICU's at every cycle.
+#[test]
+fn a_shifting_probes_icu_stages_are_the_icus_own_at_every_cycle() {
+    stages_are_the_icus_own(true);
+}
+
+fn stages_are_the_icus_own(shifts: bool) {
     let mut c = config("small");
     c.balance.enabled = true;
     let scene = common::load("scene1.json");
@@ -578,7 +609,10 @@ fn the_waveforms_icu_stages_are_the_icus_own_at_every_cycle() {
     let hw = shellsim::config::in_hardware_units(&c, prep.host.scale).unwrap();
     let mut m =
         shellsim_hw::machine::Machine::new(hw, &prep.host.scene, &prep.records, &prep.sectors, 0);
-    let mut p = StageProbe::default();
+    let mut p = StageProbe {
+        shifts,
+        ..StageProbe::default()
+    };
     let (mut held, mut cycles) = (0u64, 0u64);
     loop {
         m.tick(TickOrder::Forward);
@@ -606,5 +640,13 @@ fn the_waveforms_icu_stages_are_the_icus_own_at_every_cycle() {
     assert!(
         cycles > 1000 && held > 1000,
         "{cycles} cycles, {held} stage-cycles held"
+    );
+    // A shifting probe got its later stages as shift entries (one per advanced ICU, at
+    // least one per 20 stage-cycles held); the other, none.
+    assert_eq!(
+        p.shift_entries > held / 20,
+        shifts,
+        "{} shifts",
+        p.shift_entries
     );
 }

@@ -3,6 +3,7 @@
 //! run — the VCD writer ([`vcd`]) and its GTKWave save file ([`gtkw`]).
 
 pub mod default_job;
+mod direct;
 pub mod fst;
 pub mod gtkw;
 pub mod run;

@@ -35,6 +35,7 @@
 //! failed run leaves no half-written file. The header holds no date, so the same run gives a
 //! byte-identical file whatever the thread's timing.
 
+use super::direct::BlockOut;
 use super::fst::{fst_err, FstBody, FstHandle};
 use crate::error::{Error, Result};
 use crate::output::TempFile;
@@ -522,15 +523,11 @@ struct VcdBody {
     /// The header, written first.
     head: Vec<u8>,
     /// The bytes on their way to the file: a fixed array filled from the front, each line
-    /// written in place (fixed-size copies, no growth check) and handed to the file once
-    /// past [`VCD_BLOCK_BYTES`]; `margin` bytes past that take the longest line.
-    out: Vec<u8>,
-    /// Bytes of `out` filled.
-    at: usize,
+    /// written in place (fixed-size copies, no growth check) and handed to the file (in
+    /// whole blocks, past the page cache where it can) once past [`VCD_BLOCK_BYTES`];
+    /// `margin` bytes past that take the longest line.
+    out: BlockOut,
     margin: usize,
-    file: File,
-    /// Bytes written so far.
-    bytes_out: u64,
     /// The size limit in bytes (see [`set_wave_limit`]).
     limit: u64,
     path: PathBuf,
@@ -543,10 +540,9 @@ impl ThreadBody for VcdBody {
     }
 
     fn begin(&mut self) -> io::Result<()> {
+        // Through the buffer (the body's blocks start at the file's start).
         let head = std::mem::take(&mut self.head);
-        self.file.write_all(&head)?;
-        self.bytes_out = head.len() as u64;
-        Ok(())
+        self.out.put_all(&head)
     }
 
     /// One sample, as `VcdWriter::sample` describes; then the size limit, looked at every
@@ -560,7 +556,7 @@ impl ThreadBody for VcdBody {
         self.take_sample(win, t, changes).map_err(BodyError::Io)?;
         self.samples += 1;
         if self.samples.is_multiple_of(1024) {
-            let bytes = self.bytes_out + self.at as u64;
+            let bytes = self.out.written() + self.out.filled() as u64;
             if bytes > self.limit {
                 self.over.store(true, Ordering::Relaxed);
                 return Err(BodyError::Limit(format!(
@@ -574,10 +570,9 @@ impl ThreadBody for VcdBody {
         Ok(())
     }
 
-    fn end(mut self) -> io::Result<BodyEnd> {
-        self.flush()?;
+    fn end(self) -> io::Result<BodyEnd> {
         Ok(BodyEnd {
-            file: self.file,
+            file: self.out.finish()?,
             timestamps: self.timestamps,
         })
     }
@@ -588,31 +583,23 @@ impl VcdBody {
     /// they are many.
     #[inline(always)]
     fn room(&mut self) -> io::Result<&mut [u8]> {
-        if self.at > VCD_BLOCK_BYTES {
-            self.flush()?;
+        if self.out.filled() > VCD_BLOCK_BYTES {
+            self.out.write_out()?;
         }
-        Ok(&mut self.out[self.at..self.at + self.margin])
-    }
-
-    /// Writes the filled bytes to the file.
-    fn flush(&mut self) -> io::Result<()> {
-        self.file.write_all(&self.out[..self.at])?;
-        self.bytes_out += self.at as u64;
-        self.at = 0;
-        Ok(())
+        Ok(self.out.window(self.margin))
     }
 
     /// Appends `bytes` (at most `margin` of them).
     fn put(&mut self, bytes: &[u8]) -> io::Result<()> {
         self.room()?[..bytes.len()].copy_from_slice(bytes);
-        self.at += bytes.len();
+        self.out.advance(bytes.len());
         Ok(())
     }
 
     /// `#t\n`.
     fn put_time(&mut self, t: u64) -> io::Result<()> {
         let n = put_time(self.room()?, t);
-        self.at += n;
+        self.out.advance(n);
         Ok(())
     }
 
@@ -620,20 +607,16 @@ impl VcdBody {
     /// through its slot, any other in a window of [`LINE`] bytes.
     #[inline(always)]
     fn put_value(&mut self, i: usize, f: &LineFormat, v: u64) -> io::Result<()> {
-        if self.at > VCD_BLOCK_BYTES {
-            self.flush()?;
+        if self.out.filled() > VCD_BLOCK_BYTES {
+            self.out.write_out()?;
         }
-        self.at += if f.class == LineClass::Text {
-            put_text(
-                &mut self.out[self.at..self.at + self.margin],
-                f,
-                &self.slots[i],
-                v,
-            )
+        let n = if f.class == LineClass::Text {
+            put_text(self.out.window(self.margin), f, &self.slots[i], v)
         } else {
-            let w = &mut self.out[self.at..self.at + LINE];
+            let w = self.out.window(LINE);
             put_line(w.try_into().expect("LINE bytes"), f, v)
         };
+        self.out.advance(n);
         Ok(())
     }
 }
@@ -1002,11 +985,11 @@ impl VcdWriter {
             samples: 0,
             timestamps: 0,
             head,
-            out: vec![0; VCD_BLOCK_BYTES + 1 + margin],
-            at: 0,
+            out: BlockOut::new(
+                self.file.take().expect("the VCD's file until the header"),
+                VCD_BLOCK_BYTES + 1 + margin,
+            ),
             margin,
-            file: self.file.take().expect("the VCD's file until the header"),
-            bytes_out: 0,
             limit: self.limit,
             path: self.path.clone(),
             over: over.clone(),
@@ -1106,9 +1089,12 @@ impl Probe for VcdWriter {
         }
     }
 
-    /// The thread moves an advanced ICU's later stages (`apply_changes`).
+    /// A VCD's thread moves an advanced ICU's later stages itself (`apply_changes`): the
+    /// simulation thread, which bounds a VCD run, saves ~10 % of its instructions. An FST's
+    /// does not: an FST run is bound by the work of its three threads together, to which
+    /// the move adds (BENCHMARKS.md, session 10).
     fn shifts_stages(&self) -> bool {
-        true
+        self.out.is_some()
     }
 
     fn stop(&self) -> bool {
