@@ -125,13 +125,12 @@ impl StageShift {
             && self.span() <= SHIFT_SPAN
             && self.at >= self.stride
             && self.at < 1 << 16;
-        fits.then(|| {
-            STAGE_SHIFT
-                | (self.width as u32) << 28
-                | (self.stride as u32) << 24
-                | (self.later as u32) << 16
-                | self.at as u32
-        })
+        let code = STAGE_SHIFT
+            | (self.width as u32) << 28
+            | (self.stride as u32) << 24
+            | (self.later as u32) << 16
+            | self.at as u32;
+        fits.then_some(code)
     }
 
     /// The shift of entry `code` (its flag set), when it lies inside `n` values.
