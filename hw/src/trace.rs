@@ -230,10 +230,12 @@ fn shift<S: ChangeSink>(
     let Some(w) = sink.last().get_mut(s.at..s.at + s.span()) else {
         return Err(BadShift(s.at as u32).into());
     };
-    let mut mask = match s.width {
-        1 => move_stages::<1>(w, &mut carry, s.later, s.stride),
-        2 => move_stages::<2>(w, &mut carry, s.later, s.stride),
-        3 => move_stages::<3>(w, &mut carry, s.later, s.stride),
+    // The ICU's layout (four signals a stage, three moving) with its stride known here.
+    let mut mask = match (s.width, s.stride) {
+        (3, 4) => move_stages::<3>(w, &mut carry, s.later, 4),
+        (1, _) => move_stages::<1>(w, &mut carry, s.later, s.stride),
+        (2, _) => move_stages::<2>(w, &mut carry, s.later, s.stride),
+        (3, _) => move_stages::<3>(w, &mut carry, s.later, s.stride),
         _ => move_stages::<SHIFT_WIDTH>(w, &mut carry, s.later, s.stride),
     };
     while mask != 0 {
@@ -256,17 +258,17 @@ fn move_stages<const W: usize>(
 ) -> u64 {
     let mut c = [0u64; W];
     c.copy_from_slice(&carry[..W]);
-    let (mut mask, mut off) = (0u64, 0usize);
-    for _ in 0..later {
-        let Some(stage) = w.get_mut(off..off + W) else {
+    let (mut mask, mut bit) = (0u64, 1u64);
+    for stage in w.chunks_mut(stride).take(later) {
+        let Some(stage) = stage.get_mut(..W) else {
             break;
         };
         for j in 0..W {
             let old = std::mem::replace(&mut stage[j], c[j]);
-            mask |= ((old != c[j]) as u64) << ((off + j) % 64);
+            mask |= bit << j & 0u64.wrapping_sub((old != c[j]) as u64);
             c[j] = old;
         }
-        off += stride;
+        bit <<= stride % 64;
     }
     mask
 }

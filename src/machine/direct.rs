@@ -40,8 +40,11 @@ type Job = (Block, usize, bool);
 pub(crate) struct BlockOut {
     cur: Block,
     cap: usize,
-    /// Bytes filled.
-    at: usize,
+    /// The next byte to fill: `cur.bytes[cur.base..pos]` are filled.
+    pos: usize,
+    /// [`BlockOut::is_full`] past this `pos` (`full` bytes filled).
+    full: usize,
+    full_at: usize,
     /// Bytes handed on to be written.
     handed: u64,
     /// Blocks to the writing thread, and back once written.
@@ -51,21 +54,25 @@ pub(crate) struct BlockOut {
 }
 
 impl BlockOut {
-    /// A buffer of `cap` bytes for `file` (written directly when the system allows it) and
-    /// the thread that writes it.
-    pub(crate) fn new(file: File, cap: usize) -> Self {
+    /// A buffer of `cap` bytes for `file` (written directly when the system allows it),
+    /// full past `full` bytes, and the thread that writes it.
+    pub(crate) fn new(file: File, cap: usize, full: usize) -> Self {
         // Room for a block past the rest a hand-on leaves.
         let cap = cap.max(2 * DIRECT_ALIGN);
+        let full = full.min(cap);
         let (tx, rx) = sync_channel::<Job>(BLOCKS);
         let (back_tx, back) = channel();
         for _ in 1..BLOCKS {
             let _ = back_tx.send(Block::new(cap));
         }
         let thread = std::thread::spawn(move || write_blocks(file, rx, back_tx));
+        let cur = Block::new(cap);
         BlockOut {
-            cur: Block::new(cap),
+            pos: cur.base,
+            full,
+            full_at: cur.base + full,
+            cur,
             cap,
-            at: 0,
             handed: 0,
             tx: Some(tx),
             back,
@@ -76,7 +83,13 @@ impl BlockOut {
     /// Bytes filled and not yet handed on.
     #[inline(always)]
     pub(crate) fn filled(&self) -> usize {
-        self.at
+        self.pos - self.cur.base
+    }
+
+    /// More than the `full` bytes given at [`BlockOut::new`] are filled.
+    #[inline(always)]
+    pub(crate) fn is_full(&self) -> bool {
+        self.pos > self.full_at
     }
 
     /// Bytes handed on to be written so far.
@@ -88,25 +101,24 @@ impl BlockOut {
     /// buffer's `cap`), to be counted in with [`BlockOut::advance`].
     #[inline(always)]
     pub(crate) fn window(&mut self, len: usize) -> &mut [u8] {
-        let from = self.cur.base + self.at;
-        &mut self.cur.bytes[from..from + len]
+        &mut self.cur.bytes[self.pos..self.pos + len]
     }
 
     /// Counts `n` more bytes as filled.
     #[inline(always)]
     pub(crate) fn advance(&mut self, n: usize) {
-        self.at += n;
+        self.pos += n;
     }
 
     /// Appends `bytes` whole, handing blocks on as the buffer fills.
     pub(crate) fn put_all(&mut self, mut bytes: &[u8]) -> io::Result<()> {
         while !bytes.is_empty() {
-            if self.at >= self.cap - DIRECT_ALIGN {
+            if self.filled() >= self.cap - DIRECT_ALIGN {
                 self.write_out()?;
             }
-            let k = bytes.len().min(self.cap - self.at);
+            let k = bytes.len().min(self.cap - self.filled());
             self.window(k).copy_from_slice(&bytes[..k]);
-            self.at += k;
+            self.pos += k;
             bytes = &bytes[k..];
         }
         Ok(())
@@ -115,27 +127,29 @@ impl BlockOut {
     /// Hands the filled bytes' whole blocks on to be written (waiting for a free buffer
     /// when both are in use); the rest, under a block, starts the next buffer.
     pub(crate) fn write_out(&mut self) -> io::Result<()> {
-        let n = self.at / DIRECT_ALIGN * DIRECT_ALIGN;
+        let at = self.filled();
+        let n = at / DIRECT_ALIGN * DIRECT_ALIGN;
         if n == 0 {
             return Ok(());
         }
         let Ok(mut next) = self.back.recv() else {
             return Err(self.failed());
         };
-        let (from, to) = (self.cur.base + n, self.cur.base + self.at);
+        let (from, to) = (self.cur.base + n, self.pos);
         let rest = to - from;
         next.bytes[next.base..next.base + rest].copy_from_slice(&self.cur.bytes[from..to]);
         let full = std::mem::replace(&mut self.cur, next);
         self.send((full, n, false))?;
         self.handed += n as u64;
-        self.at = rest;
+        (self.pos, self.full_at) = (self.cur.base + rest, self.cur.base + self.full);
         Ok(())
     }
 
     /// Hands every byte filled on and waits until all are written: the file back.
     pub(crate) fn finish(mut self) -> io::Result<File> {
+        let at = self.filled();
         let last = std::mem::replace(&mut self.cur, Block::new(0));
-        self.send((last, self.at, true))?;
+        self.send((last, at, true))?;
         drop(self.tx.take());
         self.join()
     }
@@ -268,7 +282,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.bin");
         let cap = 3 * DIRECT_ALIGN;
-        let mut o = BlockOut::new(File::create(&path).unwrap(), cap);
+        let mut o = BlockOut::new(File::create(&path).unwrap(), cap, cap);
         let mut want = Vec::new();
         let head: Vec<u8> = (0..30_001u32).map(|i| (i * 7 % 251) as u8).collect();
         o.put_all(&head).unwrap();
@@ -295,7 +309,7 @@ mod tests {
         let path = dir.path().join("x.bin");
         std::fs::write(&path, b"").unwrap();
         let read_only = File::open(&path).unwrap();
-        let mut o = BlockOut::new(read_only, 2 * DIRECT_ALIGN);
+        let mut o = BlockOut::new(read_only, 2 * DIRECT_ALIGN, DIRECT_ALIGN);
         let mut failed = false;
         for _ in 0..4 {
             o.window(DIRECT_ALIGN).fill(b'x');

@@ -583,7 +583,7 @@ impl VcdBody {
     /// they are many.
     #[inline(always)]
     fn room(&mut self) -> io::Result<&mut [u8]> {
-        if self.out.filled() > VCD_BLOCK_BYTES {
+        if self.out.is_full() {
             self.out.write_out()?;
         }
         Ok(self.out.window(self.margin))
@@ -607,7 +607,7 @@ impl VcdBody {
     /// through its slot, any other in a window of [`LINE`] bytes.
     #[inline(always)]
     fn put_value(&mut self, i: usize, f: &LineFormat, v: u64) -> io::Result<()> {
-        if self.out.filled() > VCD_BLOCK_BYTES {
+        if self.out.is_full() {
             self.out.write_out()?;
         }
         let n = if f.class == LineClass::Text {
@@ -988,6 +988,7 @@ impl VcdWriter {
             out: BlockOut::new(
                 self.file.take().expect("the VCD's file until the header"),
                 VCD_BLOCK_BYTES + 1 + margin,
+                VCD_BLOCK_BYTES,
             ),
             margin,
             limit: self.limit,
