@@ -57,6 +57,11 @@ impl BlockOut {
     /// A buffer of `cap` bytes for `file` (written directly when the system allows it),
     /// full past `full` bytes, and the thread that writes it.
     pub(crate) fn new(file: File, cap: usize, full: usize) -> Self {
+        Self::with(file, cap, full, true)
+    }
+
+    /// [`BlockOut::new`], direct writes tried only when `try_direct`.
+    fn with(file: File, cap: usize, full: usize, try_direct: bool) -> Self {
         // Room for a block past the rest a hand-on leaves.
         let cap = cap.max(2 * DIRECT_ALIGN);
         let full = full.min(cap);
@@ -65,7 +70,7 @@ impl BlockOut {
         for _ in 1..BLOCKS {
             let _ = back_tx.send(Block::new(cap));
         }
-        let thread = std::thread::spawn(move || write_blocks(file, rx, back_tx));
+        let thread = std::thread::spawn(move || write_blocks(file, try_direct, rx, back_tx));
         let cur = Block::new(cap);
         BlockOut {
             pos: cur.base,
@@ -183,9 +188,15 @@ impl BlockOut {
 
 /// The writing thread: each block's bytes in turn, directly while the file takes it, the
 /// block handed back; after the last, direct writes off and the file returned.
-fn write_blocks(file: File, rx: Receiver<Job>, back: Sender<Block>) -> io::Result<File> {
+fn write_blocks(
+    file: File,
+    try_direct: bool,
+    rx: Receiver<Job>,
+    back: Sender<Block>,
+) -> io::Result<File> {
+    let regular = file.metadata().is_ok_and(|m| m.is_file());
     let mut w = Direct {
-        direct: file.metadata().is_ok_and(|m| m.is_file()) && set_direct(&file, true),
+        direct: try_direct && regular && set_direct(&file, true),
         file,
     };
     for (block, n, last) in rx {
@@ -275,14 +286,12 @@ mod tests {
     use super::*;
 
     /// The bytes come out the same in any cut: a header of an odd length longer than the
-    /// buffer, blocks handed on part way, a short tail (direct writes where the filesystem
-    /// takes them).
-    #[test]
-    fn blocks_give_the_bytes_put() {
+    /// buffer, blocks handed on part way, a short tail.
+    fn blocks_give_the_bytes_put(try_direct: bool) {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.bin");
         let cap = 3 * DIRECT_ALIGN;
-        let mut o = BlockOut::new(File::create(&path).unwrap(), cap, cap);
+        let mut o = BlockOut::with(File::create(&path).unwrap(), cap, cap, try_direct);
         let mut want = Vec::new();
         let head: Vec<u8> = (0..30_001u32).map(|i| (i * 7 % 251) as u8).collect();
         o.put_all(&head).unwrap();
@@ -300,6 +309,18 @@ mod tests {
         o.finish().unwrap();
         assert_eq!(written, want.len() as u64);
         assert_eq!(std::fs::read(&path).unwrap(), want);
+    }
+
+    /// Direct writes where the filesystem takes them.
+    #[test]
+    fn direct_blocks_give_the_bytes_put() {
+        blocks_give_the_bytes_put(true);
+    }
+
+    /// Buffered writes (a filesystem refusing direct I/O).
+    #[test]
+    fn buffered_blocks_give_the_bytes_put() {
+        blocks_give_the_bytes_put(false);
     }
 
     /// A file that cannot be written reports the error (no panic, no hang).
