@@ -1,7 +1,8 @@
 //! The trace interface: the machine declares its signals to a [`Probe`] once, then hands it
 //! one flat array of values per sample (after each clock edge), with the positions that
-//! changed since the last. The host's waveform writers implement it; hw/ knows nothing of
-//! files or formats.
+//! changed since the last — for a probe that asks, with one [`StageShift`] entry per
+//! advanced ICU in place of its later stages' changes, which [`apply_changes`] expands. The
+//! host's waveform writers implement it; hw/ knows nothing of files or formats.
 
 /// How a signal's value is to be read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
