@@ -12,7 +12,7 @@
 //! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
 //! own state, not links of this table; `Cluster::commit` clocks them.
 
-use super::probe::Sink;
+use super::probe::{Sink, LINK_SIGNALS};
 use crate::config::MachineTable;
 use crate::link::{Link, TouchWord, UnitId};
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};
@@ -273,7 +273,7 @@ fn commit_one<T: Clone>(family: &mut [Link<T>], i: u32) {
 /// Reports a link's registered valid, ready, occupancy and transfer count (a filler skips
 /// them when no edge touched the link since the last sample).
 pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>) {
-    if p.skip_unchanged_link(l.take_changed()) {
+    if p.skip_unchanged(l.take_changed(), LINK_SIGNALS) {
         return;
     }
     p.bits(scope, "valid", 1, l.valid() as u64);

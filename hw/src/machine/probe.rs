@@ -57,11 +57,12 @@ pub(super) trait Sink {
     fn move_stages(&mut self, stages: Stages) {
         let _ = stages;
     }
-    /// The next [`LINK_SIGNALS`] signals are a link's, `changed` false when no edge touched
-    /// it since the last sample (`Link::take_changed`): a filler skips them, leaving the
-    /// last sample's values, once it has filled the array at least once. True when skipped.
-    fn skip_unchanged_link(&mut self, changed: bool) -> bool {
-        let _ = changed;
+    /// The next `n` signals are a unit's whose values can have changed since the last sample
+    /// only when `changed` (a link an edge touched, `Link::take_changed`; a CTU that ticked,
+    /// `Ctu::take_ticked`): a filler skips them when not, leaving the last sample's values,
+    /// once it has filled the array at least once. True when skipped.
+    fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
+        let _ = (changed, n);
         false
     }
 }
@@ -380,10 +381,10 @@ macro_rules! fill_sink {
                 self.pos = at - stride + width;
             }
             #[inline(always)]
-            fn skip_unchanged_link(&mut self, changed: bool) -> bool {
+            fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
                 let skip = !changed && self.filled_before();
                 if skip {
-                    self.pos += LINK_SIGNALS;
+                    self.pos += n;
                 }
                 skip
             }
@@ -551,9 +552,11 @@ impl Machine<'_> {
                 self.links.probe(p, Section::BundleCluster(c));
             }
             for (j, (ctu, s)) in cl.ctus.iter().zip(&cs.ctus).enumerate() {
-                // A finished CTU never ticks again: its six signals are final.
+                // A finished CTU never ticks again: its six signals are final; nor do they
+                // change in a cycle it did not tick actively.
                 let u = self.clusters.len() + c * cl.ctus.len() + j;
-                if !p.skip_quiet(u, ctu.is_finished(), 6) {
+                let ticked = ctu.take_ticked();
+                if !p.skip_quiet(u, ctu.is_finished(), 6) && !p.skip_unchanged(ticked, 6) {
                     p.text(s, "state", CtuState::NAMES, ctu.state.index());
                     p.bits(s, "shell", 16, ctu.shell() as u64);
                     p.bits(s, "remaining_rays", 32, ctu.remaining() as u64);

@@ -30,6 +30,7 @@ use crate::link::{Link, UnitCode, UnitId};
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, PatchArrival};
 use crate::units::ray_pool::RayList;
 use bitvec::prelude::*;
+use std::cell::Cell;
 
 /// The traversal FSM's states.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -239,6 +240,8 @@ pub struct Ctu {
     phase_of: BitVec,
     boundary_ray: Option<u32>,
     pub stats: CtuStats,
+    /// [`Ctu::tick_active`] ran since the waveform last looked ([`Ctu::take_ticked`]).
+    ticked: Cell<bool>,
 }
 
 impl Ctu {
@@ -263,6 +266,7 @@ impl Ctu {
             p,
             me: UnitId::Ctu(p.cluster as usize, p.local as usize).into(),
             finished: false,
+            ticked: Cell::new(false),
             state: CtuState::Idle,
             remaining: (0..slots.len() as u32).collect(),
             best: vec![None; slots.len()],
@@ -436,6 +440,15 @@ impl Ctu {
         self.finished
     }
 
+    /// True when [`Ctu::tick_active`] ran since the last call, which clears it. Nothing else
+    /// changes what the waveform shows of a CTU (its state, shell, remaining rays,
+    /// outstanding jobs, pending loads, jobs issued): an idle cycle and a cycle jump only
+    /// count cycles, so the walk reads the CTU's signals only then.
+    #[inline(always)]
+    pub fn take_ticked(&self) -> bool {
+        self.ticked.replace(false)
+    }
+
     /// A cycle of a finished CTU: `skip(1)` in DONE.
     #[inline(always)]
     pub fn finished_cycle(&mut self) {
@@ -446,6 +459,7 @@ impl Ctu {
     /// A cycle with something to do (or to check).
     #[inline(never)]
     pub fn tick_active(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
+        self.ticked.set(true);
         self.stats.state_cycles.add(self.state, 1);
         let me = self.me;
         let mut busy = false;
