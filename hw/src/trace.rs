@@ -228,24 +228,53 @@ fn shift<S: ChangeSink>(
     sink: &mut S,
     (s, mut carry): (StageShift, [u64; SHIFT_WIDTH]),
 ) -> Result<(), S::Error> {
+    // The ICU's layout (four signals a stage, three moving), its later stages whole inside
+    // the values (the result stage's t is the layout's), in one pass of whole stages.
+    if (s.width, s.stride) == (3, 4) {
+        if let Some(w) = sink.last().get_mut(s.at..s.at + 4 * s.later) {
+            let mask = move_icu_stages(w, &carry);
+            return each_set(sink, s.at, mask);
+        }
+    }
     let Some(w) = sink.last().get_mut(s.at..s.at + s.span()) else {
         return Err(BadShift(s.at as u32).into());
     };
-    // The ICU's layout (four signals a stage, three moving) with its stride known here.
-    let mut mask = match (s.width, s.stride) {
-        (3, 4) => move_stages::<3>(w, &mut carry, s.later, 4),
-        (1, _) => move_stages::<1>(w, &mut carry, s.later, s.stride),
-        (2, _) => move_stages::<2>(w, &mut carry, s.later, s.stride),
-        (3, _) => move_stages::<3>(w, &mut carry, s.later, s.stride),
+    let mask = match s.width {
+        1 => move_stages::<1>(w, &mut carry, s.later, s.stride),
+        2 => move_stages::<2>(w, &mut carry, s.later, s.stride),
+        3 => move_stages::<3>(w, &mut carry, s.later, s.stride),
         _ => move_stages::<SHIFT_WIDTH>(w, &mut carry, s.later, s.stride),
     };
+    each_set(sink, s.at, mask)
+}
+
+/// Hands each position `at + b` whose bit b is set in `mask`, ascending, to `sink` with its
+/// value.
+#[inline(always)]
+fn each_set<S: ChangeSink>(sink: &mut S, at: usize, mut mask: u64) -> Result<(), S::Error> {
     while mask != 0 {
-        let p = s.at + mask.trailing_zeros() as usize;
+        let p = at + mask.trailing_zeros() as usize;
         mask &= mask - 1;
         let v = sink.last()[p];
         sink.change(p, v)?;
     }
     Ok(())
+}
+
+/// [`move_stages`] for the ICU's stages of four signals, three moving, `w` the later stages
+/// whole (at most 16: [`SHIFT_SPAN`]): the carry in registers, no bound check per signal.
+#[inline(always)]
+fn move_icu_stages(w: &mut [u64], carry: &[u64; SHIFT_WIDTH]) -> u64 {
+    let (mut c0, mut c1, mut c2) = (carry[0], carry[1], carry[2]);
+    let mut mask = 0u64;
+    for (k, st) in w.chunks_exact_mut(4).take(SHIFT_SPAN / 4).enumerate() {
+        let (o0, o1, o2) = (st[0], st[1], st[2]);
+        (st[0], st[1], st[2]) = (c0, c1, c2);
+        let m = (o0 != c0) as u64 | ((o1 != c1) as u64) << 1 | ((o2 != c2) as u64) << 2;
+        mask |= m << (4 * k);
+        (c0, c1, c2) = (o0, o1, o2);
+    }
+    mask
 }
 
 /// Moves `later` stages of `stride` signals in `w` (stage 1 first), the first `W` of each
