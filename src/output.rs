@@ -163,6 +163,11 @@ impl TempFile {
         &self.path
     }
 
+    /// True when it writes a fresh temporary file (not a device, FIFO or standard output).
+    pub fn is_temporary(&self) -> bool {
+        self.tmp.is_some()
+    }
+
     /// The path being written: the temporary file, or the target when writing directly.
     pub fn tmp_path(&self) -> &Path {
         self.tmp.as_deref().unwrap_or(&self.target)

@@ -1,7 +1,8 @@
 //! The trace interface: the machine declares its signals to a [`Probe`] once, then hands it
 //! one flat array of values per sample (after each clock edge), with the positions that
 //! changed since the last — for a probe that asks, with one [`StageShift`] entry per
-//! advanced ICU in place of its later stages' changes, which [`apply_changes`] expands. The
+//! advanced ICU (whose layout fits the entry) in place of its later stages' changes, which
+//! [`apply_changes`] expands. The
 //! host's waveform writers implement it; hw/ knows nothing of files or formats.
 
 /// How a signal's value is to be read.
@@ -48,7 +49,8 @@ pub trait Probe {
     /// True when the probe moves an advanced pipeline's later stages itself (the same answer
     /// for the whole run): [`Probe::sample_changes`]'s lists then hold one [`StageShift`]
     /// entry in place of their changes (apply a list with [`apply_changes`]), and `values` is
-    /// not kept at their positions. It saves the machine a put per moving signal of every
+    /// not kept at their positions — for each ICU whose layout fits the entry
+    /// ([`StageShift::encode`]); another's changes are listed as for any probe. It saves the machine a put per moving signal of every
     /// later stage of every advanced ICU, and the hand-off of their changes.
     fn shifts_stages(&self) -> bool {
         false

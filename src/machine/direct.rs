@@ -42,7 +42,8 @@ pub(crate) struct BlockOut {
     cap: usize,
     /// The next byte to fill: `cur.bytes[cur.base..pos]` are filled.
     pos: usize,
-    /// [`BlockOut::is_full`] past this `pos` (`full` bytes filled).
+    /// Bytes past which [`BlockOut::is_full`] is true (under `cap`: the caller keeps each
+    /// window within `cap − full`), and the `pos` that is.
     full: usize,
     full_at: usize,
     /// Bytes handed on to be written.
@@ -54,14 +55,11 @@ pub(crate) struct BlockOut {
 }
 
 impl BlockOut {
-    /// A buffer of `cap` bytes for `file` (written directly when the system allows it),
-    /// full past `full` bytes, and the thread that writes it.
-    pub(crate) fn new(file: File, cap: usize, full: usize) -> Self {
-        Self::with(file, cap, full, true)
-    }
-
-    /// [`BlockOut::new`], direct writes tried only when `try_direct`.
-    fn with(file: File, cap: usize, full: usize, try_direct: bool) -> Self {
+    /// A buffer of `cap` bytes for `file`, full past `full` bytes, and the thread that
+    /// writes it: directly when `try_direct` and the system allows it. Only a file of its
+    /// own may be tried so (the flag belongs to the open file, which a duplicated standard
+    /// output shares with the shell).
+    pub(crate) fn new(file: File, cap: usize, full: usize, try_direct: bool) -> Self {
         // Room for a block past the rest a hand-on leaves.
         let cap = cap.max(2 * DIRECT_ALIGN);
         let full = full.min(cap);
@@ -188,6 +186,17 @@ impl BlockOut {
 
 /// The writing thread: each block's bytes in turn, directly while the file takes it, the
 /// block handed back; after the last, direct writes off and the file returned.
+impl Drop for BlockOut {
+    /// Unfinished (the run stopped on an error): the thread ends after the block it holds,
+    /// and is waited for, so nothing writes to the file once the body is gone.
+    fn drop(&mut self) {
+        drop(self.tx.take());
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 fn write_blocks(
     file: File,
     try_direct: bool,
@@ -205,7 +214,9 @@ fn write_blocks(
         }
         w.write(&block.bytes[block.base..block.base + n])?;
         if last {
-            w.buffered()?;
+            // Every byte is written: clearing the flag only spares later users of the file
+            // its rules, so a failure to is not the run's.
+            let _ = w.buffered();
             return Ok(w.file);
         }
         // The writer may be gone (an error on its side): nothing to hand back to.
@@ -291,14 +302,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.bin");
         let cap = 3 * DIRECT_ALIGN;
-        let mut o = BlockOut::with(File::create(&path).unwrap(), cap, cap, try_direct);
+        let mut o = BlockOut::new(File::create(&path).unwrap(), cap, cap - 64, try_direct);
         let mut want = Vec::new();
         let head: Vec<u8> = (0..30_001u32).map(|i| (i * 7 % 251) as u8).collect();
         o.put_all(&head).unwrap();
         want.extend_from_slice(&head);
         for k in 0..5000u32 {
             let line = format!("b{k:b} {}\n", k % 97);
-            if o.filled() + line.len() > cap {
+            if o.is_full() {
                 o.write_out().unwrap();
             }
             o.window(line.len()).copy_from_slice(line.as_bytes());
@@ -330,7 +341,7 @@ mod tests {
         let path = dir.path().join("x.bin");
         std::fs::write(&path, b"").unwrap();
         let read_only = File::open(&path).unwrap();
-        let mut o = BlockOut::new(read_only, 2 * DIRECT_ALIGN, DIRECT_ALIGN);
+        let mut o = BlockOut::new(read_only, 2 * DIRECT_ALIGN, DIRECT_ALIGN, true);
         let mut failed = false;
         for _ in 0..4 {
             o.window(DIRECT_ALIGN).fill(b'x');

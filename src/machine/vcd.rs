@@ -989,6 +989,7 @@ impl VcdWriter {
                 self.file.take().expect("the VCD's file until the header"),
                 VCD_BLOCK_BYTES + 1 + margin,
                 VCD_BLOCK_BYTES,
+                self.tmp.as_ref().is_some_and(TempFile::is_temporary),
             ),
             margin,
             limit: self.limit,

@@ -7,8 +7,10 @@
 //! positions in ascending order, so no second pass sorts or gathers them) — no string is
 //! touched per cycle and nothing is allocated. The array keeps the last sample's values, so
 //! what cannot have changed is not put again: an empty ICU's stages (all zero) and a finished
-//! CTU's signals (final) when so at the last sample too, a link no edge touched, a stage's t
-//! before the result stage (always zero).
+//! CTU's signals (final) when so at the last sample too, a CTU that did not tick, a link no
+//! edge touched, a stage's t before the result stage (always zero). For a probe that
+//! [`Probe::shifts_stages`], an advanced ICU's later stages are not moved in the array: one
+//! [`StageShift`] entry in the list stands for them, and the probe moves its own copy.
 
 use std::cell::Cell;
 
@@ -45,7 +47,9 @@ pub(super) trait Sink {
     /// itself ([`Shift::Moved`]: it keeps stage 0's moving signals as they were, the walk
     /// reports stage 0, [`Sink::move_stages`] moves the later stages, the walk reports the
     /// result stage's t) or, the ring unmoved, skips them all ([`Shift::Held`]: a stall
-    /// changes nothing).
+    /// changes nothing). For a probe that shifts stages itself, a filler lists one
+    /// [`StageShift`] here instead of keeping stage 0's values, and leaves the later stages
+    /// as they are.
     fn shift_stages(&mut self, stages: Stages) -> Shift {
         let _ = stages;
         Shift::Walk
@@ -164,7 +168,7 @@ struct Fill<'a> {
     /// Per cluster: its ICU's ring position at the last sample.
     ring: &'a [Cell<usize>],
     /// Stage 0's moving values at the last sample, kept by [`Sink::shift_stages`] for
-    /// [`Sink::move_stages`].
+    /// [`Sink::move_stages`] (unless it listed a [`StageShift`]: `shifted`).
     carry: [u64; CARRY],
     /// The probe moves the later stages itself ([`Probe::shifts_stages`]).
     shifts: bool,
