@@ -713,6 +713,33 @@ mod tests {
         f.fixed("", "t", 8, 0, 4);
     }
 
+    /// A [`Fill`]'s arrays, the values [`LAST`]'s.
+    fn arrays() -> (Vec<u64>, Vec<u32>) {
+        let mut values = vec![0u64; FILL_CAP];
+        values[..12].copy_from_slice(&LAST);
+        (values, vec![0u32; LIST_CAP])
+    }
+
+    /// A [`Fill`] over `arrays()`, its probe shifting stages itself when `shifts`.
+    fn fill<'a>(
+        values: &'a mut [u64],
+        changes: &'a mut [u32],
+        ring: &'a [Cell<usize>],
+        shifts: bool,
+    ) -> Fill<'a> {
+        Fill {
+            values: values.try_into().expect("FILL_CAP values"),
+            pos: 0,
+            listed: 0,
+            changes: changes.try_into().expect("LIST_CAP positions"),
+            quiet: &[],
+            ring,
+            carry: [0; CARRY],
+            shifts,
+            shifted: false,
+        }
+    }
+
     /// The values after the move, and the positions that changed, ascending.
     const NEXT: [u64; 12] = [0, 0, 0, 0, 1, 7, 8, 0, 1, 5, 6, 4];
     const CHANGED: [u32; 7] = [0, 1, 2, 5, 6, 10, 11];
@@ -720,20 +747,8 @@ mod tests {
     #[test]
     fn fill_moves_an_advanced_icus_stages_listing_the_changes_ascending() {
         let ring = [Cell::new(0)];
-        let mut values = vec![0u64; FILL_CAP];
-        values[..12].copy_from_slice(&LAST);
-        let mut changes = vec![0u32; LIST_CAP];
-        let mut f = Fill {
-            values: (&mut values[..]).try_into().expect("FILL_CAP values"),
-            pos: 0,
-            listed: 0,
-            changes: (&mut changes[..]).try_into().expect("LIST_CAP positions"),
-            quiet: &[],
-            ring: &ring,
-            carry: [0; CARRY],
-            shifts: false,
-            shifted: false,
-        };
+        let (mut values, mut changes) = arrays();
+        let mut f = fill(&mut values, &mut changes, &ring, false);
         advance(&mut f);
         assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
         assert_eq!(values[..12], NEXT);
@@ -764,25 +779,14 @@ mod tests {
     }
 
     /// With a probe that shifts stages itself, the fill lists one [`StageShift`] ahead of
-    /// stage 0's changes and leaves the later stages as they were; [`crate::trace::apply_changes`] on the
-    /// last sample then gives the same values and the same changes, ascending.
+    /// stage 0's changes and leaves the later stages as they were;
+    /// [`crate::trace::apply_changes`] on the last sample then gives the same values and the
+    /// same changes, ascending.
     #[test]
     fn a_shifting_probe_gets_one_entry_that_expands_to_the_same_changes() {
         let ring = [Cell::new(0)];
-        let mut values = vec![0u64; FILL_CAP];
-        values[..12].copy_from_slice(&LAST);
-        let mut changes = vec![0u32; LIST_CAP];
-        let mut f = Fill {
-            values: (&mut values[..]).try_into().expect("FILL_CAP values"),
-            pos: 0,
-            listed: 0,
-            changes: (&mut changes[..]).try_into().expect("LIST_CAP positions"),
-            quiet: &[],
-            ring: &ring,
-            carry: [0; CARRY],
-            shifts: true,
-            shifted: false,
-        };
+        let (mut values, mut changes) = arrays();
+        let mut f = fill(&mut values, &mut changes, &ring, true);
         advance(&mut f);
         let listed = f.listed;
         assert_eq!(f.pos, 12);
