@@ -15,8 +15,11 @@ SCENE=$(readlink -f scenes/scene2.json)
 [ $# -gt 0 ] || set -- --ratio 10 --vcd "${TMPDIR:-/tmp}/thread-instr.vcd"
 DIR=$(mktemp -d "${TMPDIR:-/tmp}/thread-instr.XXXXXX")
 trap 'rm -rf "$DIR"' EXIT
-(cd "$DIR" && valgrind --tool=callgrind --separate-threads=yes \
-    "$BIN" run --scene "$SCENE" --json "$DIR/run.json" "$@" > /dev/null 2> "$DIR/valgrind.log")
+if ! (cd "$DIR" && valgrind --tool=callgrind --separate-threads=yes \
+    "$BIN" run --scene "$SCENE" --json "$DIR/run.json" "$@" > /dev/null 2> "$DIR/valgrind.log"); then
+    tail -20 "$DIR/valgrind.log" >&2
+    exit 1
+fi
 # (awk reads to the end: callgrind_annotate cut off by a closed pipe fails the pipeline)
 total() {
     callgrind_annotate --show-percs=no "$1" 2>/dev/null |
