@@ -5,7 +5,7 @@
 # between two runs of the same binary as callgrind attributes tail calls; threads' totals
 # and `Machine::run` do not). Instruction counts do not see kernel time or the
 # two cores' contention, but they are stable from run to run where wall times on these
-# machines move ±15 %: compare them across changes and sessions (BENCHMARKS.md, issue 13).
+# machines move by 15 % or more: compare them across changes and sessions (BENCHMARKS.md, issue 13).
 # Default run: scene2 at Hi_Low_Ratio 10 with a VCD. Needs valgrind (callgrind_annotate).
 # Example: bash ci/thread-instr.sh target/release/shellsim --ratio 10 --wave /tmp/x.fst
 set -euo pipefail
