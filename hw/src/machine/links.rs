@@ -3,11 +3,13 @@
 //! and where the waveform shows it. `commit_all`, `all_empty`, `probe` and the wiring are
 //! generated from the table, so adding a link touches this table and nothing else.
 //!
-//! The clock edge commits only the links touched in the cycle: the table's links are
-//! numbered in table order (family by family), link n raises bit n % 64 of touch word n / 64
-//! when a push, pop or take-back stages something, and `commit_all` takes each word and
-//! commits the links whose bits are up, each found through a table of (family, index) by
-//! number — a few of the table's links a cycle, found without testing the rest.
+//! The clock edge commits only the links touched in the cycle: each family has its own touch
+//! words, link i of a family raising bit i % 64 of its family's word i / 64 when a push, pop
+//! or take-back stages something, and `commit_all` takes each family's words in table order
+//! and commits the links whose bits are up — a few of the table's links a cycle, found
+//! without testing the rest and reached without a dispatch on the family (an indirect jump
+//! per touched link, mispredicted as often as the touched families change from cycle to
+//! cycle).
 //!
 //! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
 //! own state, not links of this table; `Cluster::commit` clocks them.
@@ -62,17 +64,14 @@ macro_rules! links {
             k: usize,
             /// Waveform scope of each link, per family (built once).
             scopes: Scopes,
-            /// The touch words: link number n raises bit n % 64 of word n / 64.
-            touch: Vec<TouchWord>,
-            /// Link number n's family and index in it.
-            numbers: Vec<(Family, u32)>,
+            /// Each family's touch words: its link i raises bit i % 64 of word i / 64.
+            touch: Touch,
         }
 
-        /// A family of the table.
-        #[allow(non_camel_case_types)]
-        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-        enum Family {
-            $( $name, )*
+        /// The touch words of each family.
+        #[derive(Debug, Default)]
+        struct Touch {
+            $( $name: Vec<TouchWord>, )*
         }
 
         #[derive(Clone, Debug, Default)]
@@ -92,7 +91,7 @@ macro_rules! links {
                     }
                 };
                 let mut scopes = Scopes::default();
-                let (mut touch, mut numbers) = (Vec::new(), Vec::new());
+                let mut touch = Touch::default();
                 $(
                     let cap: fn(&MachineTable) -> usize = $cap;
                     let from: fn(usize, usize) -> UnitId = $from;
@@ -104,34 +103,18 @@ macro_rules! links {
                         .iter()
                         .map(|&(c, j)| Link::new(cap(m)).wired(from(c, j), to(c, j)))
                         .collect();
+                    touch.$name = (0..$name.len().div_ceil(64)).map(|_| TouchWord::default()).collect();
                     for (i, l) in $name.iter_mut().enumerate() {
-                        let n = numbers.len();
-                        if n % 64 == 0 {
-                            touch.push(TouchWord::default());
-                        }
-                        l.log_touches(&touch[n / 64], (n % 64) as u32);
-                        numbers.push((Family::$name, i as u32));
+                        l.log_touches(&touch.$name[i / 64], (i % 64) as u32);
                     }
                 )*
-                Links { $( $name, )* k, scopes, touch, numbers }
+                Links { $( $name, )* k, scopes, touch }
             }
 
             /// The clock edge of every link: those touched this cycle commit, the others
             /// have nothing to do.
             pub fn commit_all(&mut self) {
-                for (w, word) in self.touch.iter().enumerate() {
-                    let mut bits = word.take();
-                    while bits != 0 {
-                        let n = w * 64 + bits.trailing_zeros() as usize;
-                        bits &= bits - 1;
-                        let Some(&(family, i)) = self.numbers.get(n) else {
-                            continue;
-                        };
-                        match family {
-                            $( Family::$name => commit_one(&mut self.$name, i), )*
-                        }
-                    }
-                }
+                $( commit_family(&mut self.$name, &self.touch.$name); )*
             }
 
             /// True when every link is empty.
@@ -261,12 +244,19 @@ impl Links {
     }
 }
 
-/// The clock edge of link `i` of `family` (one whose bit is up but that has nothing
-/// staged commits nothing).
+/// The clock edge of a family's links whose bits are up in its touch `words` (one whose
+/// bit is up but that has nothing staged commits nothing).
 #[inline(always)]
-fn commit_one<T: Clone>(family: &mut [Link<T>], i: u32) {
-    if let Some(l) = family.get_mut(i as usize) {
-        l.commit();
+fn commit_family<T: Clone>(family: &mut [Link<T>], words: &[TouchWord]) {
+    for (w, word) in words.iter().enumerate() {
+        let mut bits = word.take();
+        while bits != 0 {
+            let i = w * 64 + bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            if let Some(l) = family.get_mut(i) {
+                l.commit();
+            }
+        }
     }
 }
 
@@ -287,8 +277,8 @@ mod tests {
     use super::*;
     use crate::msg::MemRequest;
 
-    /// 40 clusters of the paper's 2 CTUs: 80 links a per-CTU family, 680 in all (11 touch
-    /// words, a family's links across two or three).
+    /// 40 clusters of the paper's 2 CTUs: 80 links a per-CTU family (two touch words, links
+    /// 64.. in the second), 40 a per-cluster family (one).
     fn links() -> Links {
         let mut m = crate::config::paper().machine;
         m.clusters = 40;
