@@ -457,7 +457,7 @@ impl Ctu {
     }
 
     /// A cycle with something to do (or to check).
-    #[inline(never)]
+    #[inline(always)]
     pub fn tick_active(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
         self.ticked.set(true);
         self.stats.state_cycles.add(self.state, 1);

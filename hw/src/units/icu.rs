@@ -224,7 +224,7 @@ impl Icu {
     }
 
     /// A cycle with a job inside or waiting at the input.
-    #[inline(never)]
+    #[inline(always)]
     fn tick_active(
         &mut self,
         io: &mut IcuPorts,

@@ -236,7 +236,7 @@ impl RayBuffer {
     }
 
     /// A cycle with an order or a job waiting at an input.
-    #[inline(never)]
+    #[inline(always)]
     fn tick_active(&mut self, cluster: u16, io: JobPorts<'_>) {
         let JobPorts {
             inputs,
