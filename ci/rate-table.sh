@@ -3,10 +3,10 @@
 # and 30 on hw/configs/paper.toml with 1, 2, 4, 8 and 16 clusters (2 CTUs each, balancing on), no
 # waveform. For each row, ROUNDS rounds run every binary in turn (alternated, so drift hits all
 # alike); the table takes each binary's fastest `host.simulation_seconds` (the cycle model and its
-# checks, not loading and partitioning), the cycles (every binary must agree: a speed change keeps
-# every statistic) and the peak RSS. Prints a Markdown table: per binary the seconds and M cycles/s,
-# then the last binary's M cluster-cycles/s (cycles × clusters / second, the throughput per
-# simulated cluster) and its speedup over the first. Needs jq.
+# checks, not loading and partitioning), the cycles (every run of every binary must agree: a speed
+# change keeps every statistic) and the peak RSS. Prints a Markdown table: per binary the seconds
+# and M cycles/s, then the last binary's M cluster-cycles/s (cycles × clusters / second, the
+# throughput per simulated cluster) and its speedup over the first. Needs jq.
 set -euo pipefail
 R=$1; shift
 [ $# -ge 1 ] || { echo "usage: rate-table.sh ROUNDS BIN..." >&2; exit 2; }
@@ -18,10 +18,12 @@ for n in "${names[@]}"; do head="$head s $n |"; rule="$rule --- |"; done
 for n in "${names[@]}"; do head="$head M cycles/s $n |"; rule="$rule --- |"; done
 echo "$head M cluster-cycles/s ${names[-1]} | speedup | peak RSS |"
 echo "$rule --- | --- | --- |"
+for c in 1 2 4 8 16; do
+  sed "s/^clusters = 4 /clusters = $c /" hw/configs/paper.toml > "$D/c$c.toml"
+  grep -q "^clusters = $c " "$D/c$c.toml" || { echo "paper.toml: no 'clusters = 4 ' line" >&2; exit 1; }
+done
 for ratio in 1 10 30; do
   for c in 1 2 4 8 16; do
-    sed "s/^clusters = 4 /clusters = $c /" hw/configs/paper.toml > "$D/c$c.toml"
-    grep -q "^clusters = $c " "$D/c$c.toml" || { echo "paper.toml: no 'clusters = 4 ' line" >&2; exit 1; }
     for i in $(seq "$R"); do
       for k in "${!names[@]}"; do
         "${@:k+1:1}" run --scene scenes/scene2.json --ratio "$ratio" --hw "$D/c$c.toml" \
@@ -30,11 +32,9 @@ for ratio in 1 10 30; do
           >> "$D/$k"
       done
     done
-    cycles=$(cut -f1 "$D/0" | sort -u)
-    for k in "${!names[@]}"; do
-      [ "$(cut -f1 "$D/$k" | sort -u)" = "$cycles" ] ||
-        { echo "ratio $ratio, $c clusters: ${names[k]} simulated other cycles than ${names[0]}" >&2; exit 1; }
-    done
+    cycles=$(cut -f1 "$D"/[0-9]* | sort -u)
+    [ "$(echo "$cycles" | wc -l)" = 1 ] ||
+      { echo "ratio $ratio, $c clusters: the runs simulated different cycles:" $cycles >&2; exit 1; }
     row="| $ratio | $c | $(echo "$cycles" | sed -e ':a' -e 's/\B[0-9]\{3\}\>/,&/' -e 'ta') |"
     best=(); for k in "${!names[@]}"; do best+=("$(cut -f2 "$D/$k" | sort -g | head -1)"); done
     for s in "${best[@]}"; do row="$row $(printf '%.3f' "$s") |"; done
