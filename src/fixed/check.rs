@@ -75,7 +75,36 @@ pub struct CheckReport {
     pub exceptions: Exceptions,
     pub tolerances: Tolerances,
     pub unexplained: Vec<Unexplained>,
+    /// Rays that hit nothing, per model.
+    pub escaped_float: u64,
+    pub escaped_fixed: u64,
+    /// Rays the fixed-point model lost where the float reference hit a patch.
+    pub leaked: u64,
+    /// Rays the fixed-point model lost although the float reference found a patch for them
+    /// (the first 20, with where the float ray met the scene). From a closed scene every
+    /// one is a failure.
+    pub leaks: Vec<Leak>,
+    /// The patch with the largest form-factor error, and that error in units of the float
+    /// estimate's sampling error (`ff_err_max / ff_sampling_err`).
+    pub ff_err_patch: Option<u32>,
+    pub ff_err_sigmas: f64,
 }
+
+/// A ray the fixed-point model lost where the float reference hit a patch.
+#[derive(Clone, Debug, Serialize)]
+pub struct Leak {
+    pub ray: usize,
+    pub origin: [f64; 3],
+    pub direction: [f64; 3],
+    /// The patch the float ray met and the point where it met it: where the fixed-point ray
+    /// left the scene.
+    pub float_patch: u32,
+    pub float_point: [f64; 3],
+}
+
+/// The form-factor error at which `check` fails, in units of the float estimate's sampling
+/// error: above it, the fixed point — not the ray count — limits the result.
+pub const FF_ERR_SIGMAS_MAX: f64 = 1.0;
 
 /// Distance from `p` to the boundary of a polygon.
 fn boundary_distance(g: &PatchGeom, p: glam::DVec3) -> f64 {
@@ -160,8 +189,9 @@ pub fn check(
                 t: host.t_f64(h.t),
             });
             let overflow = exc.overflow > 0 || exc.t_saturated > 0;
-            let class =
-                (!same).then(|| classify(tracer, host, ray, float, fixed_hit, overflow, tol));
+            let shift = rec.map_or(0.0, |r| host.ray_back(&r).o.distance(ray.o));
+            let class = (!same)
+                .then(|| classify(tracer, host, ray, float, fixed_hit, overflow, shift, tol));
             Outcome {
                 float,
                 fixed,
@@ -176,9 +206,25 @@ pub fn check(
     let mut mismatches = 0;
     let mut unexplained = Vec::new();
     let mut unexplained_n = 0;
+    let (mut escaped_float, mut escaped_fixed) = (0u64, 0u64);
+    let mut leaks = Vec::new();
+    let mut leaked = 0u64;
     let (mut t_max, mut t_sq, mut t_n) = (0.0f64, 0.0f64, 0usize);
     for (i, o) in outcomes.iter().enumerate() {
         exceptions.add(&o.exc);
+        escaped_float += o.float.is_none() as u64;
+        escaped_fixed += o.fixed.is_none() as u64;
+        leaked += (o.float.is_some() && o.fixed.is_none()) as u64;
+        if let (Some(h), None, true) = (o.float, o.fixed, leaks.len() < 20) {
+            let r = &set.rays[i];
+            leaks.push(Leak {
+                ray: i,
+                origin: r.o.to_array(),
+                direction: r.d.to_array(),
+                float_patch: h.patch,
+                float_point: (r.o + r.d * h.t).to_array(),
+            });
+        }
         if let Some(e) = o.t_err_lsb {
             t_max = t_max.max(e);
             t_sq += e * e;
@@ -229,7 +275,16 @@ pub fn check(
     for x in &ff_b {
         err[x.patch as usize] -= x.value;
     }
-    let ff_err_max = err.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+    let (ff_err_patch, ff_err_max) = err
+        .iter()
+        .enumerate()
+        .fold((None, 0.0f64), |(p, m), (j, e)| {
+            if e.abs() > m {
+                (Some(j as u32), e.abs())
+            } else {
+                (p, m)
+            }
+        });
     let nr = set.len() as f64;
     let ff_sampling_err = dense
         .iter()
@@ -251,12 +306,28 @@ pub fn check(
         exceptions,
         tolerances: tol,
         unexplained,
+        escaped_float,
+        escaped_fixed,
+        leaked,
+        leaks,
+        ff_err_patch,
+        ff_err_sigmas: if ff_sampling_err > 0.0 {
+            ff_err_max / ff_sampling_err
+        } else if ff_err_max > 0.0 {
+            f64::INFINITY
+        } else {
+            0.0
+        },
     }
 }
 
 /// Why two answers for `ray` disagree — `float` (the float reference's, or an exact one)
 /// and `fixed` (the other model's, t as a scene length) — if an explained class covers it,
-/// with LSBs of `host`'s formats; `overflow`: the datapath overflowed or saturated on it.
+/// with LSBs of `host`'s formats; `overflow`: the datapath overflowed or saturated on it;
+/// `shift`: how far the fixed-point ray's origin lies from the float one (a scene length:
+/// the host places a ray leaving a patch a few LSBs inside it, `crate::fixed::origin`), by
+/// which every zone below widens.
+#[allow(clippy::too_many_arguments)]
 pub fn classify(
     tracer: &Tracer,
     host: &HostFixed,
@@ -264,6 +335,7 @@ pub fn classify(
     float: Option<Hit>,
     fixed: Option<Hit>,
     overflow: bool,
+    shift: f64,
     tol: Tolerances,
 ) -> Option<Class> {
     if overflow {
@@ -289,7 +361,7 @@ pub fn classify(
     let len = ray.d.length();
     if involved
         .iter()
-        .any(|&(_, t)| t * len <= tol.edge_lsb * lsb_c)
+        .any(|&(_, t)| t * len <= tol.edge_lsb * lsb_c + shift)
     {
         return Some(Class::NearOrigin);
     }
@@ -304,7 +376,9 @@ pub fn classify(
         // The quantized ray strays about an LSB per unit of t from the float one; on the
         // patch's plane that offset grows by 1/|cos| of the incidence angle.
         let cos = g.normal.dot(dn).abs();
-        if boundary_distance(g, p) <= tol.edge_lsb * lsb_c * (1.0 + 2.0 * t / host.scale) / cos {
+        if boundary_distance(g, p)
+            <= (tol.edge_lsb * lsb_c * (1.0 + 2.0 * t / host.scale) + shift) / cos
+        {
             return Some(Class::NearEdge);
         }
     }
@@ -320,7 +394,7 @@ pub fn classify(
     // beyond the plain distance test above.
     for &(id, t) in &involved {
         let cos = tracer.patches[id as usize].normal.dot(dn).abs();
-        if t * len * cos <= tol.edge_lsb * lsb_c {
+        if t * len * cos <= tol.edge_lsb * lsb_c + shift {
             return Some(Class::NearOrigin);
         }
     }
@@ -361,17 +435,58 @@ pub fn check_scene(
 }
 
 impl CheckReport {
-    /// `Err(Error::Check)` when some mismatch has no explanation; the message points to
-    /// the JSON report `written` only when one was written.
+    /// `Err(Error::Check)` with what is wrong and what to try when (1) the fixed-point
+    /// model lost a ray the float reference found a patch for (a leak: from a closed scene
+    /// it must not happen), (2) the form-factor error exceeds the float estimate's own
+    /// sampling error ([`FF_ERR_SIGMAS_MAX`]) — then the classes, however they file the
+    /// differences, do not account for their size — or (3) some mismatch has no explanation.
+    /// The message points to the JSON report `written` when one was written.
     pub fn verdict(&self, written: Option<&Path>) -> Result<()> {
+        let listed = written.map_or(String::new(), |p| format!(" (listed in {})", p.display()));
+        let mut wrong = Vec::new();
+        if let Some(l) = self.leaks.first() {
+            wrong.push(format!(
+                "{} rays escaped the fixed-point model where the float reference hit a patch{listed}; \
+                 the first, ray {} from ({:.6}, {:.6}, {:.6}) along ({:.6}, {:.6}, {:.6}), left \
+                 through patch {} at ({:.6}, {:.6}, {:.6}): the scene is not closed in fixed \
+                 point there (a crack between patches that do not share vertices, or patches \
+                 closer than the datapath's LSB)",
+                self.leaked,
+                l.ray,
+                l.origin[0], l.origin[1], l.origin[2],
+                l.direction[0], l.direction[1], l.direction[2],
+                l.float_patch,
+                l.float_point[0], l.float_point[1], l.float_point[2],
+            ));
+        }
+        if self.ff_err_sigmas > FF_ERR_SIGMAS_MAX {
+            let patch = self.ff_err_patch.map_or(String::new(), |p| format!(" (patch {p})"));
+            wrong.push(format!(
+                "the form-factor error {:.3e}{patch} is {:.1}× the float estimate's sampling error \
+                 {:.3e} (at most {FF_ERR_SIGMAS_MAX}× passes): the fixed point, not the ray count, \
+                 limits the result — {} of {} rays differ ({} near the origin, {} near an edge); \
+                 try more fractional bits (--frac-bits), a finer cell, or look for patches \
+                 within an LSB of each other",
+                self.ff_err_max,
+                self.ff_err_sigmas,
+                self.ff_sampling_err,
+                self.mismatches,
+                self.rays,
+                self.classes.near_origin,
+                self.classes.near_edge,
+            ));
+        }
         if self.unexplained_mismatches > 0 {
-            let listed = written.map_or(String::new(), |p| format!(" (listed in {})", p.display()));
-            return Err(Error::Check(format!(
+            wrong.push(format!(
                 "{} unexplained mismatches{listed}",
                 self.unexplained_mismatches
-            )));
+            ));
         }
-        Ok(())
+        if wrong.is_empty() {
+            Ok(())
+        } else {
+            Err(Error::Check(wrong.join("; ")))
+        }
     }
 
     /// Writes the report with the datapath it ran on as JSON to `path`.

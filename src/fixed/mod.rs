@@ -3,5 +3,6 @@
 //! and that comparison over bit widths ([`sweep`]).
 
 pub mod check;
+pub mod origin;
 pub mod records;
 pub mod sweep;

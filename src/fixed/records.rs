@@ -9,6 +9,7 @@
 //! (up to the float rounding of the conversion). t is in the same units.
 
 use crate::error::{Error, Result};
+use crate::fixed::origin::{place, rises, Placement};
 use crate::reference::grid::polygon_touches_box;
 use crate::reference::tracer::Ray;
 use crate::scene::{Aabb, Scene};
@@ -87,6 +88,7 @@ impl HostFixed {
                 formats: f,
                 patches,
                 cells,
+                twins: scene.twins(),
             },
             config,
             origin,
@@ -103,61 +105,69 @@ impl HostFixed {
     /// and unit direction, each rounded to nearest. `None` if a value does not fit or the
     /// direction rounds to 0.
     pub fn ray(&self, id: u32, ray: &Ray) -> Option<RayRecord> {
-        self.ray_with(id, ray, None)
+        self.ray_with(id, ray)
     }
 
-    /// The ray record of a ray leaving patch `source`: as [`HostFixed::ray`], then (1) on
-    /// each axis along which the source's quantized vertices span at least 2 LSB, an origin
-    /// that rounded onto or beyond the source's bounding box is moved one LSB inside it, and
-    /// (2) the origin is lifted one LSB off the source's plane, to its front side, along the
-    /// dominant axis of its normal. Why: a ray leaving near the edge where a patch adjoins the
-    /// source (a wall on the floor) meets that patch just above their shared edge. From an
-    /// origin on the boundary it meets it at t = 0, which the datapath rejects (t ≤ 0 is
-    /// behind the ray); from an origin a little inside but on the plane it meets it a fraction
-    /// of an LSB above the edge (|d_n| / |d_t| of the distance, 0.04 for the paper's most
-    /// grazing ring), where the edge test's rounding can put it outside. Either way the ray
-    /// escapes through the corner of a closed scene. Lifted, it meets the patch at least an
-    /// LSB above the edge, beyond the shear's ½-LSB rounding. The front hemisphere's rays
-    /// never come back to the source's plane, so the lift hides nothing they could hit.
+    /// The ray record of a ray leaving patch `source`: its origin placed inside the scene,
+    /// clear of every patch by more than the datapath's rounding can move one
+    /// ([`crate::fixed::origin`]: a few LSBs inside the quantized source polygon and off its
+    /// plane), and its direction turned an LSB towards the source's normal where the rounded
+    /// shear would not rise away from the source. From a closed scene such a ray cannot
+    /// escape in the fixed-point model. `None` if a value does not fit.
     pub fn ray_from(&self, id: u32, ray: &Ray, source: u32) -> Option<RayRecord> {
-        self.ray_with(id, ray, self.scene.patches.get(source as usize))
+        self.ray_placed(id, ray, source).map(|(r, _)| r)
     }
 
-    fn ray_with(&self, id: u32, ray: &Ray, source: Option<&PatchRecord>) -> Option<RayRecord> {
+    /// As [`HostFixed::ray_from`], with how the origin was placed.
+    pub fn ray_placed(&self, id: u32, ray: &Ray, source: u32) -> Option<(RayRecord, Placement)> {
         let f = self.formats();
-        let o = (ray.o - self.origin) / self.scale;
-        let len = ray.d.length();
-        let d = ray.d / len;
-        let mut oq = [
-            f.coord.quantize(o.x)?,
-            f.coord.quantize(o.y)?,
-            f.coord.quantize(o.z)?,
-        ];
-        if let Some(p) = source {
-            let v = &p.v[..p.n_verts as usize];
-            for (a, o) in oq.iter_mut().enumerate() {
-                let lo = v.iter().map(|v| v[a]).min().unwrap_or(*o);
-                let hi = v.iter().map(|v| v[a]).max().unwrap_or(*o);
-                if hi - lo >= 2 {
-                    *o = (*o).clamp(lo + 1, hi - 1);
-                }
+        let p = self.scene.patches.get(source as usize)?;
+        let o = (ray.o - self.origin) / self.scale * (f.coord.frac_bits as f64).exp2();
+        let (oq, placement) = place(o, source, &self.scene)?;
+        if !oq.iter().all(|&c| f.coord.fits(c as i128)) {
+            return None;
+        }
+        let mut dq = self.direction(ray)?;
+        let n = newell(&p.v[..p.n_verts as usize]);
+        let a = (0..3).max_by_key(|&a| n[a].unsigned_abs()).unwrap_or(2);
+        let shear_one = 1i128 << f.shear.frac_bits;
+        // A grazing direction whose rounding turned it along or behind the source: an LSB
+        // at a time towards the normal (a handful of steps at most).
+        for _ in 0..64 {
+            let r = RayRecord::new(id, oq, dq, f);
+            if rises(&r, n, shear_one) {
+                return Some((r, placement));
             }
-            let n = newell(v);
-            let a = (0..3).max_by_key(|&a| n[a].unsigned_abs()).unwrap_or(2);
-            oq[a] += n[a].signum() as i64;
-            if !f.coord.fits(oq[a] as i128) {
+            dq[a] += n[a].signum() as i64;
+            if !f.dir.fits(dq[a] as i128) {
                 return None;
             }
         }
+        None
+    }
+
+    /// The unit direction of `ray`, rounded to the direction format; `None` if it does not
+    /// fit or rounds to 0.
+    fn direction(&self, ray: &Ray) -> Option<[i64; 3]> {
+        let f = self.formats();
+        let d = ray.d / ray.d.length();
         let dq = [
             f.dir.quantize(d.x)?,
             f.dir.quantize(d.y)?,
             f.dir.quantize(d.z)?,
         ];
-        if dq == [0, 0, 0] {
-            return None;
-        }
-        Some(RayRecord::new(id, oq, dq, f))
+        (dq != [0, 0, 0]).then_some(dq)
+    }
+
+    fn ray_with(&self, id: u32, ray: &Ray) -> Option<RayRecord> {
+        let f = self.formats();
+        let o = (ray.o - self.origin) / self.scale;
+        let oq = [
+            f.coord.quantize(o.x)?,
+            f.coord.quantize(o.y)?,
+            f.coord.quantize(o.z)?,
+        ];
+        Some(RayRecord::new(id, oq, self.direction(ray)?, f))
     }
 
     /// The float ray the record stands for (quantized origin and direction, as f64).

@@ -414,6 +414,8 @@ pub struct Tracer {
     corners: Vec<Corners>,
     /// Slack of the stopping rule, in units of length (see `trace_counted`).
     slack_len: f64,
+    /// Per patch, its coplanar twins (`Scene::twins`): excluded with it as the source.
+    twins: Vec<Vec<u32>>,
 }
 
 impl Tracer {
@@ -434,6 +436,7 @@ impl Tracer {
             patches,
             grid,
             slack_len: 1e-9 * diag,
+            twins: scene.twins(),
         })
     }
 
@@ -469,13 +472,21 @@ impl Tracer {
         }
     }
 
-    /// Nearest hit by testing every patch (except `exclude`).
+    /// The coplanar twins of `source` (`Scene::twins`), which its rays pass through.
+    pub fn twins_of(&self, source: Option<u32>) -> &[u32] {
+        source
+            .and_then(|s| self.twins.get(s as usize))
+            .map_or(&[], Vec::as_slice)
+    }
+
+    /// Nearest hit by testing every patch (except `exclude` and its coplanar twins).
     pub fn trace_brute(&self, ray: &Ray, exclude: Option<u32>) -> Option<Hit> {
         let r = PreparedRay::new(ray);
+        let twins = self.twins_of(exclude);
         let exclude = exclude.unwrap_or(NO_PATCH);
         let mut near = Nearest::new();
         for id in 0..self.planes.len() as u32 {
-            if id != exclude {
+            if id != exclude && !twins.contains(&id) {
                 self.test(&r, id, &mut near);
             }
         }
@@ -522,6 +533,7 @@ impl Tracer {
         };
         let r = PreparedRay::new(ray);
         let slack_t = self.slack_len / ray.d.length();
+        let twins = self.twins_of(exclude);
         let exclude = exclude.unwrap_or(NO_PATCH);
         let mut mailbox = Mailbox::new();
         let mut near = Nearest::new();
@@ -533,7 +545,7 @@ impl Tracer {
                 counts.nonempty_cells += (!list.is_empty()) as u32;
             }
             for &id in list {
-                if id == exclude {
+                if id == exclude || (!twins.is_empty() && twins.contains(&id)) {
                     continue;
                 }
                 if COUNT {

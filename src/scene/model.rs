@@ -311,6 +311,80 @@ impl Scene {
         self.patches.iter().map(Patch::area).sum()
     }
 
+    /// Coplanar twins: per patch, the other patches that lie in its plane within
+    /// [`TWIN_TOL`] of the scene's scale (every vertex, whichever way they face) and overlap
+    /// it with positive area — a coincident duplicate, a tile on a floor, a light panel set
+    /// a hair below a ceiling. **The one rule of all three models:** rays leaving a patch
+    /// pass through its twins (the float reference, the untimed fixed-point model and the
+    /// machine exclude them with the source), so that no model's answer turns on how the
+    /// rounding orders two surfaces closer than the datapath can tell apart. Ascending ids;
+    /// symmetric. A sweep over the x extents keeps it near-linear for scenes that are not
+    /// one big plane.
+    pub fn twins(&self) -> Vec<Vec<u32>> {
+        let n = self.patches.len();
+        let tol = TWIN_TOL * self.bounds.scale();
+        let boxes: Vec<(DVec3, DVec3)> = self
+            .patches
+            .iter()
+            .map(|p| {
+                let lo = p.vertices.iter().copied().reduce(DVec3::min).unwrap_or_default();
+                let hi = p.vertices.iter().copied().reduce(DVec3::max).unwrap_or_default();
+                (lo, hi)
+            })
+            .collect();
+        let mut order: Vec<u32> = (0..n as u32).collect();
+        order.sort_by(|&a, &b| boxes[a as usize].0.x.total_cmp(&boxes[b as usize].0.x));
+        let mut out = vec![Vec::new(); n];
+        for (k, &i) in order.iter().enumerate() {
+            let (lo_i, hi_i) = boxes[i as usize];
+            for &j in &order[k + 1..] {
+                let (lo_j, hi_j) = boxes[j as usize];
+                if lo_j.x > hi_i.x + tol {
+                    break;
+                }
+                let apart = (0..3).any(|a| lo_j[a] > hi_i[a] + tol || lo_i[a] > hi_j[a] + tol);
+                if !apart && self.coplanar_overlap(i, j, tol) {
+                    out[i as usize].push(j);
+                    out[j as usize].push(i);
+                }
+            }
+        }
+        for t in &mut out {
+            t.sort_unstable();
+        }
+        out
+    }
+
+    /// Whether patch `j` lies in patch `i`'s plane within `tol` (and `i` in `j`'s) and
+    /// overlaps it by more than `tol` in that plane.
+    fn coplanar_overlap(&self, i: u32, j: u32, tol: f64) -> bool {
+        let (a, b) = (&self.patches[i as usize], &self.patches[j as usize]);
+        let on = |p: &Patch, q: &Patch| {
+            let (n, c) = (p.normal(), p.vertices[0]);
+            q.vertices.iter().all(|v| (*v - c).dot(n).abs() <= tol)
+        };
+        if !(on(a, b) && on(b, a)) {
+            return false;
+        }
+        let m = a.normal().abs();
+        let k = if m.x >= m.y && m.x >= m.z {
+            0
+        } else if m.y >= m.z {
+            1
+        } else {
+            2
+        };
+        let flat = |v: &[DVec3]| -> Vec<[f64; 2]> {
+            v.iter()
+                .map(|p| {
+                    let a = p.to_array();
+                    [a[(k + 1) % 3], a[(k + 2) % 3]]
+                })
+                .collect()
+        };
+        polygons_overlap(&flat(&a.vertices), &flat(&b.vertices), tol)
+    }
+
     /// The patches lying on patch `id`: in its plane (every vertex within 1e-9 of the
     /// scene's scale of it, whichever way they face) and overlapping it with positive area
     /// — a tile on the floor. Rays leaving `id` meet them at t ≈ 0, where the answer turns
@@ -354,6 +428,11 @@ impl Scene {
             .collect()
     }
 }
+
+/// Distance from a patch's plane, as a fraction of the scene's scale, within which an
+/// overlapping patch is its coplanar twin ([`Scene::twins`]): 2^-11, half an LSB of the
+/// default 12-bit datapath — closer than the hardware can order two surfaces.
+pub const TWIN_TOL: f64 = 1.0 / 2048.0;
 
 /// Whether two convex polygons of one plane overlap by more than `eps` on every axis that
 /// could separate them (their edges' normals): their interiors meet.

@@ -18,6 +18,9 @@ pub struct FixedScene {
     pub formats: Formats,
     pub patches: Vec<PatchRecord>,
     pub cells: CellTable,
+    /// Per patch, the patches its rays pass through besides itself (its coplanar twins,
+    /// found by the host): excluded with it as the source, never loaded for it.
+    pub twins: Vec<Vec<u32>>,
 }
 
 /// Work counted by one grid walk.
@@ -28,6 +31,13 @@ pub struct WalkCounts {
 }
 
 impl FixedScene {
+    /// The twins of `source`, which its rays pass through (empty for none).
+    pub fn twins_of(&self, source: Option<u32>) -> &[u32] {
+        source
+            .and_then(|s| self.twins.get(s as usize))
+            .map_or(&[], Vec::as_slice)
+    }
+
     /// Nearest hit by testing every patch record except `exclude`.
     pub fn nearest_brute(
         &self,
@@ -36,8 +46,9 @@ impl FixedScene {
         exc: &mut Exceptions,
     ) -> Option<FixedHit> {
         let mut best = None;
+        let twins = self.twins_of(exclude);
         for p in &self.patches {
-            if Some(p.id) == exclude {
+            if Some(p.id) == exclude || twins.contains(&p.id) {
                 continue;
             }
             if let Some(h) = intersect(r, p, &self.formats, exc) {
@@ -59,11 +70,12 @@ impl FixedScene {
             return (None, counts);
         };
         let tf = self.formats.t.frac_bits;
+        let twins = self.twins_of(exclude);
         let mut best: Option<FixedHit> = None;
         loop {
             counts.cells += 1;
             for &id in self.cells.patches_in(self.cells.index(dda.c)) {
-                if Some(id) == exclude {
+                if Some(id) == exclude || (!twins.is_empty() && twins.contains(&id)) {
                     continue;
                 }
                 counts.tests += 1;

@@ -137,6 +137,7 @@ impl<'a> Machine<'a> {
                             overlap: cfg.machine.overlap_joins,
                         };
                         Ctu::new(p, r, rays, &scene.cells, scene.patches.len())
+                            .skipping(scene.twins_of(Some(source)))
                     })
                     .collect();
                 Cluster::new(

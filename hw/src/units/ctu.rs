@@ -245,6 +245,15 @@ pub struct Ctu {
 }
 
 impl Ctu {
+    /// The CTU with `ids` marked loaded before it starts: patches its source's rays pass
+    /// through (coplanar twins), never requested — like the source.
+    pub fn skipping(mut self, ids: &[u32]) -> Self {
+        for &id in ids {
+            self.loaded.set(id as usize, true);
+        }
+        self
+    }
+
     /// A CTU for the sector whose rays are `rays` (global ids, ascending).
     pub fn new(
         p: CtuParams,

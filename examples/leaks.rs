@@ -1,0 +1,46 @@
+//! Diagnostic (temporary): prints the fixed model's escaped rays of a scene.
+use shellsim::fixed::records::HostFixed;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::Tracer;
+use shellsim_hw::Exceptions;
+use std::path::Path;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let path = Path::new(&args[1]);
+    let n: usize = args[2].parse().unwrap();
+    let dirs = match args.get(3).map(|s| s.as_str()) {
+        Some("random") => Directions::Random,
+        Some("malley") => Directions::Malley,
+        _ => Directions::Rings,
+    };
+    let scene = shellsim::scene::Scene::load(path).unwrap();
+    let tr = Tracer::new(&scene, 0.05 * scene.bounds.scale()).unwrap();
+    let cfg = shellsim_hw::config::paper().datapath;
+    let host = HostFixed::new(&scene, path, cfg, 0.05 * scene.bounds.scale()).unwrap();
+    let mut total = 0;
+    for s in 0..scene.patches.len() as u32 {
+        let set = hemisphere_rays(&scene.patches[s as usize], n, dirs, Origins::Patch, 1);
+        let mut esc = 0;
+        let mut fesc = 0;
+        let mut crowded = 0;
+        for (k, ray) in set.rays.iter().enumerate() {
+            let fl = tr.trace(ray, Some(s));
+            if fl.is_none() { fesc += 1; }
+            let (r, pl) = host.ray_placed(k as u32, ray, s).unwrap();
+            if pl != shellsim::fixed::origin::Placement::Clear { crowded += 1; if crowded <= 2 { println!("src {s} ray {k} {pl:?} o {:?}", ray.o); } }
+            let mut e = Exceptions::default();
+            let h = host.scene.nearest_grid(&r, Some(s), &mut e).0;
+            if h.is_none() {
+                esc += 1;
+                let hb = host.scene.nearest_brute(&r, Some(s), &mut e);
+                if esc <= 3 {
+                    println!("src {s} ray {k} o {:?} d {:?} oq {:?} dq {:?} float {:?} brute {:?} exc {:?}", ray.o, ray.d, r.o, r.d, fl, hb, e);
+                }
+            }
+        }
+        if esc > 0 || fesc > 0 || crowded > 0 { println!("source {s}: fixed escaped {esc}, float escaped {fesc}, crowded {crowded}"); }
+        total += esc;
+    }
+    println!("total {total}");
+}
