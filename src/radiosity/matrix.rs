@@ -362,9 +362,35 @@ pub fn run_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<RowRun> {
     Ok(RowRun { set, hits, stats })
 }
 
+/// `Err(Error::Check)` naming the source, the ray and where it left when the fixed-point
+/// model or the machine lost a ray of `run` that the float reference traces to a patch —
+/// a leak, which the origin placement (`crate::fixed::origin`) rules out for a closed scene.
+/// Only the rays that escaped are traced again.
+fn leak_check(sh: &Shared, spec: &MatrixSpec, i: u32, run: &RowRun) -> Result<()> {
+    let escaped = run.hits.iter().filter(|h| h.is_none()).count();
+    for (k, _) in run.hits.iter().enumerate().filter(|(_, h)| h.is_none()) {
+        let ray = &run.set.rays[k];
+        if let Some(h) = sh.tracer.trace(ray, Some(i)) {
+            let p = ray.o + ray.d * h.t;
+            return Err(Error::Check(format!(
+                "source {i}: the {} model lost {escaped} rays; ray {k} from ({:.6}, {:.6}, {:.6}) along \
+                 ({:.6}, {:.6}, {:.6}) left the scene where the float reference meets patch {} at \
+                 ({:.6}, {:.6}, {:.6})",
+                spec.model.name(),
+                ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z,
+                h.patch, p.x, p.y, p.z
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// One source's row on `spec.model` (the machine's figures too, for the machine).
 pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Option<MachineRow>)> {
     let run = run_row(sh, spec, i)?;
+    if spec.model != Model::Float {
+        leak_check(sh, spec, i, &run)?;
+    }
     let mr = run.stats.as_ref().map(|s| MachineRow {
         cycles: s.cycles,
         pipeline_efficiency: s.pipeline_efficiency,
