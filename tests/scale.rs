@@ -132,3 +132,76 @@ fn the_resolved_lengths_scale_with_the_scene() {
         10.0
     );
 }
+
+/// The float reference's form factors from source 0 (969 rings rays, default seed) and its
+/// escaped-ray count, on `scene` as given.
+fn reference_form_factors(scene: &Scene) -> (Vec<f64>, usize) {
+    use shellsim::reference::cast::run_scene;
+    use shellsim::reference::rays::RaySpec;
+    let spec = RaySpec {
+        source: 0,
+        rays: 969,
+        directions: Directions::Rings,
+        seed: 1,
+    };
+    let cell = shellsim::config::cell_size(
+        shellsim::config::built_in().machine.cell_size,
+        scene.bounds.scale(),
+    );
+    let r = run_scene(scene, Path::new("<placed>"), &spec, cell).unwrap();
+    let mut ff = vec![0.0; scene.patches.len()];
+    for f in &r.form_factors {
+        ff[f.patch as usize] = f.value;
+    }
+    (ff, r.escaped)
+}
+
+/// Far from the origin and at any size the validator accepts, the float reference loses no
+/// ray and finds the form factors it finds at the origin: it traces in the scene's own frame
+/// (bounds' low corner at the origin), so only the input's own rounding differs. Offsets
+/// reach 4·10⁶ extents, just inside the validator's 2^22 (in world coordinates 10⁶ extents
+/// already lost hundreds of rays). A placement 10⁸ extents out is refused as an input error.
+#[test]
+fn far_and_small_placements_trace_as_at_the_origin() {
+    let scenes = [
+        ("unit-cube", common::unit_cube()),
+        ("cornell", common::load("cornell.json")),
+        ("scene2", common::load("scene2.json")),
+    ];
+    for (name, scene) in &scenes {
+        let (at_origin, escaped) = reference_form_factors(scene);
+        assert_eq!(escaped, 0, "{name} at the origin");
+        for ext in [1e-6, 1e-3, 1.0, 1e3] {
+            for off in [0.0, 1e2, 1e4, 1e6, 4e6] {
+                let placed = transformed(scene, ext, DVec3::splat(off * ext));
+                let (ff, escaped) = reference_form_factors(&placed);
+                let what = format!("{name} × {ext:e} moved {off:e} extents");
+                assert_eq!(escaped, 0, "{what}: escaped rays");
+                for (j, (a, b)) in at_origin.iter().zip(&ff).enumerate() {
+                    assert!((a - b).abs() <= 1e-9, "{what}: F to patch {j}: {a} vs {b}");
+                }
+            }
+        }
+        // Too far out for f64 to hold the scene to 2^-30 of its extent: refused.
+        for (ext, off) in [(1.0, 1e8), (1e-3, 1e7), (1e-6, 1e11)] {
+            let mut s = scene.clone();
+            let t = DVec3::splat(off * ext);
+            s.bounds.lo = s.bounds.lo * ext + t;
+            s.bounds.hi = s.bounds.hi * ext + t;
+            for p in &mut s.patches {
+                for v in &mut p.vertices {
+                    *v = *v * ext + t;
+                }
+            }
+            let e = s
+                .validate(Path::new("<far>"))
+                .expect_err("a scene 10^8 extents out is refused");
+            assert_eq!(e.exit_code(), 2, "{name}: an input error: {e}");
+            assert!(
+                matches!(e, shellsim::error::Error::Input { ref place, .. } if place == "bounds")
+                    && e.to_string().contains("2^22"),
+                "{name}: names the bounds and the bound: {e}"
+            );
+        }
+    }
+}

@@ -117,7 +117,7 @@ fn info(file: &Path, grid: CellArg, edit: &SceneEditArgs) -> Result<()> {
     let loaded = edit.load_with_warnings(file)?;
     let scene = &loaded.scene;
     let tracer = Tracer::new(scene, grid.for_scene(scene)).map_err(|e| e.for_scene(file))?;
-    let g = &tracer.grid;
+    let g = tracer.grid();
     let tris = scene
         .patches
         .iter()

@@ -556,7 +556,7 @@ pub fn partition(scene: &Scene, tracer: &Tracer, cfg: &Config) -> Partition {
             tracer.cells_along(ray, hit.map_or(f64::INFINITY, |h| h.t), |c, _, _| {
                 seen.extend(
                     tracer
-                        .grid
+                        .grid()
                         .patches_in(c)
                         .iter()
                         .filter(|&&p| p != cfg.source),
@@ -578,7 +578,7 @@ pub fn partition(scene: &Scene, tracer: &Tracer, cfg: &Config) -> Partition {
         config: cfg.clone(),
         scene: scene.name.clone(),
         patches: scene.patches.len(),
-        grid_dims: tracer.grid.dims,
+        grid_dims: tracer.grid().dims,
         low,
         plan,
         high_rays,

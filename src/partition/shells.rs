@@ -39,7 +39,7 @@
 //! and every order inside one is fixed (ray order, traversal order, patch id order).
 
 use crate::reference::grid::Grid;
-use crate::reference::tracer::{Hit, PreparedRay, Ray, Tracer};
+use crate::reference::tracer::{Hit, LocalRay, Ray, Tracer};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -222,7 +222,8 @@ pub struct Caster<'a> {
     pub walks: Walks,
     pub source: u32,
     pub params: ShellParams,
-    prepared: Vec<PreparedRay>,
+    /// The rays in the tracer's frame, for its patch tests.
+    prepared: Vec<LocalRay>,
     slack_t: Vec<f64>,
 }
 
@@ -237,20 +238,20 @@ impl<'a> Caster<'a> {
     ) -> Caster<'a> {
         let walks = Walks::new(tracer, rays, centre, params.radius);
         // The float tracer's stopping slack (1e-9 of the grid's diagonal), in units of t.
-        let slack_len = 1e-9 * tracer.grid.aabb().extent().length();
+        let slack_len = 1e-9 * tracer.grid().aabb().extent().length();
         Caster {
             tracer,
             rays,
             walks,
             source,
             params,
-            prepared: rays.iter().map(PreparedRay::new).collect(),
+            prepared: rays.iter().map(|r| tracer.prepare(r)).collect(),
             slack_t: rays.iter().map(|r| slack_len / r.d.length()).collect(),
         }
     }
 
     fn grid(&self) -> &Grid {
-        &self.tracer.grid
+        self.tracer.grid()
     }
 
     /// Works through the bundle of rays `ids` (ids into the ray set; any order, each once).
@@ -342,9 +343,7 @@ impl<'a> Caster<'a> {
                     let pr = &self.prepared[r];
                     let mut best = run.hits[i];
                     for &p in &patches {
-                        if let Some(h) =
-                            self.tracer.patches[p as usize].intersect_if_nearer(pr, p, &best)
-                        {
+                        if let Some(h) = self.tracer.hit_if_nearer(pr, p, &best) {
                             best = Some(h);
                         }
                     }

@@ -147,7 +147,7 @@ pub fn run(tracer: &Tracer, set: &RaySet, info: &RunInfo, show_progress: bool) -
         rays: set.len(),
         directions: info.directions,
         seed: info.seed,
-        cell_size: tracer.grid.cell_size,
+        cell_size: tracer.grid().cell_size,
         escaped,
         escaped_weight,
         weight_sum,

@@ -18,6 +18,18 @@
 //! determinant with an FMA fallback), and an edge the ray passes exactly through belongs to
 //! one side only (a top-left fill rule). A ray through an edge or vertex shared by patches
 //! that tile a surface therefore hits exactly one of them: no leaks, no double hits.
+//!
+//! **Invariant (frame):** the tracer works in the scene's own frame, world coordinates minus
+//! the bounds' low corner ([`Tracer::frame`]). Every patch and the grid are translated once,
+//! when the tracer is built, and every world-space [`Ray`] a public method takes has its
+//! origin translated the same way (one subtraction per coordinate) before it is prepared;
+//! t is unchanged by a translation, so callers pass world-space rays and get world-space t.
+//! Working near the origin keeps the arithmetic's rounding relative to the scene's extent
+//! rather than to its distance from the world origin: in world coordinates a scene 10⁶
+//! extents away rounds every plane offset, cell bound and overlap test at 2⁻³² of its
+//! extent, below the tolerances those tests allow, and patches fall out of the grid. (A
+//! scene whose low corner is the origin is traced bit for bit as before: subtracting 0 is
+//! exact.)
 
 use crate::reference::grid::Grid;
 use crate::scene::{Patch, Scene};
@@ -402,14 +414,25 @@ impl Mailbox {
     }
 }
 
+/// A ray prepared by [`Tracer::prepare`]: translated into the tracer's frame, so that only
+/// the tracer's own methods take it (a [`PreparedRay`] made from a world-space ray would
+/// mix frames).
+#[derive(Clone, Copy, Debug)]
+pub struct LocalRay(PreparedRay);
+
 /// The float reference tracer: prepared patches and the grid.
 #[derive(Clone, Debug)]
 pub struct Tracer {
-    /// The prepared patches. (The tracer tests copies laid out for speed, made by `new`:
-    /// changing these afterwards does not change what it traces.)
+    /// The prepared patches in world space, for callers that measure against world-space
+    /// points and rays (the tracer itself tests translated copies, made by `new`: changing
+    /// these afterwards does not change what it traces).
     pub patches: Vec<PatchGeom>,
-    pub grid: Grid,
-    /// Per patch: its plane, and its corners (split so that rejections touch little memory).
+    /// The grid, in the tracer's frame (see [`Tracer::grid`]).
+    grid: Grid,
+    /// The frame's origin in world space: the scene bounds' low corner.
+    frame: DVec3,
+    /// Per patch, in the tracer's frame: its plane, and its corners (split so that
+    /// rejections touch little memory).
     planes: Vec<Plane>,
     corners: Vec<Corners>,
     /// Slack of the stopping rule, in units of length (see `trace_counted`).
@@ -419,25 +442,79 @@ pub struct Tracer {
 }
 
 impl Tracer {
-    /// Prepares `scene` with cells of `cell_size`.
+    /// Prepares `scene` with cells of `cell_size`: translated into its own frame (its
+    /// bounds' low corner at the origin, see the module's frame invariant).
     pub fn new(scene: &Scene, cell_size: f64) -> crate::Result<Tracer> {
-        let grid = Grid::build(scene, cell_size)?;
+        let frame = scene.bounds.lo;
+        let local = translated(scene, frame);
+        let grid = Grid::build(&local, cell_size)?;
         let diag = grid.aabb().extent().length();
-        let patches: Vec<PatchGeom> = scene.patches.iter().map(PatchGeom::new).collect();
+        let local_geoms: Vec<PatchGeom> = local.patches.iter().map(PatchGeom::new).collect();
         Ok(Tracer {
-            planes: patches
+            planes: local_geoms
                 .iter()
                 .map(|p| Plane {
                     normal: p.normal,
                     offset: p.offset,
                 })
                 .collect(),
-            corners: patches.iter().map(Corners::new).collect(),
-            patches,
+            corners: local_geoms.iter().map(Corners::new).collect(),
+            patches: scene.patches.iter().map(PatchGeom::new).collect(),
             grid,
+            frame,
             slack_len: 1e-9 * diag,
             twins: scene.twins(),
         })
+    }
+
+    /// The grid, in the tracer's frame: its box and cell bounds are world coordinates minus
+    /// [`Tracer::frame`]. Walk it with [`Tracer::dda`] (or [`Dda::new`] on a ray from
+    /// [`Tracer::to_local`]), never with a world-space ray.
+    #[inline]
+    pub fn grid(&self) -> &Grid {
+        &self.grid
+    }
+
+    /// The origin of the tracer's frame in world space: the scene bounds' low corner.
+    #[inline]
+    pub fn frame(&self) -> DVec3 {
+        self.frame
+    }
+
+    /// `ray` (world space) in the tracer's frame: its origin translated, its direction and
+    /// so its t unchanged.
+    #[inline(always)]
+    pub fn to_local(&self, ray: &Ray) -> Ray {
+        Ray {
+            o: ray.o - self.frame,
+            d: ray.d,
+        }
+    }
+
+    /// `ray` (world space) translated and prepared for [`Tracer::hit_if_nearer`].
+    #[inline]
+    pub fn prepare(&self, ray: &Ray) -> LocalRay {
+        LocalRay(PreparedRay::new(&self.to_local(ray)))
+    }
+
+    /// The grid walk of `ray` (world space), in the tracer's frame; `None` if it misses the
+    /// grid. Its t are world-space t.
+    #[inline]
+    pub fn dda(&self, ray: &Ray) -> Option<Dda<'_>> {
+        Dda::new(&self.grid, &self.to_local(ray))
+    }
+
+    /// The hit of `r` on patch `id` if it is nearer than `best` (tie rule of [`Hit::beats`]):
+    /// [`PatchGeom::intersect_if_nearer`] on the patch in the tracer's frame.
+    #[inline]
+    pub fn hit_if_nearer(&self, r: &LocalRay, id: u32, best: &Option<Hit>) -> Option<Hit> {
+        let mut near = Nearest::new();
+        if let Some(b) = best {
+            near.set(*b);
+        }
+        self.test(&r.0, id, &mut near);
+        let h = near.get();
+        (h != *best).then_some(h).flatten()
     }
 
     /// Tests patch `id` against `r` and makes it the nearest hit if it is nearer: the same t
@@ -481,7 +558,7 @@ impl Tracer {
 
     /// Nearest hit by testing every patch (except `exclude` and its coplanar twins).
     pub fn trace_brute(&self, ray: &Ray, exclude: Option<u32>) -> Option<Hit> {
-        let r = PreparedRay::new(ray);
+        let r = PreparedRay::new(&self.to_local(ray));
         let twins = self.twins_of(exclude);
         let exclude = exclude.unwrap_or(NO_PATCH);
         let mut near = Nearest::new();
@@ -495,7 +572,7 @@ impl Tracer {
 
     /// Every patch the ray's half-line `t > 0` hits, sorted by (t, id): for watertightness checks.
     pub fn hits_all(&self, ray: &Ray) -> Vec<Hit> {
-        let r = PreparedRay::new(ray);
+        let r = PreparedRay::new(&self.to_local(ray));
         let mut v: Vec<Hit> = (0..self.planes.len() as u32)
             .filter_map(|id| {
                 let mut near = Nearest::new();
@@ -528,6 +605,7 @@ impl Tracer {
         exclude: Option<u32>,
     ) -> (Option<Hit>, TraceCounts) {
         let mut counts = TraceCounts::default();
+        let ray = &self.to_local(ray);
         let Some(mut dda) = Dda::new(&self.grid, ray) else {
             return (None, counts);
         };
@@ -572,7 +650,7 @@ impl Tracer {
     /// until the cell that contains `t_limit` (inclusive) or the grid's end. The same
     /// stepping as [`Tracer::trace`].
     pub fn cells_along(&self, ray: &Ray, t_limit: f64, mut f: impl FnMut(usize, f64, f64)) {
-        let Some(mut dda) = Dda::new(&self.grid, ray) else {
+        let Some(mut dda) = self.dda(ray) else {
             return;
         };
         loop {
@@ -582,6 +660,20 @@ impl Tracer {
             }
         }
     }
+}
+
+/// `scene` with every vertex and its bounds translated by `−by`: one subtraction per
+/// coordinate, exact when `by` is zero.
+fn translated(scene: &Scene, by: DVec3) -> Scene {
+    let mut s = scene.clone();
+    s.bounds.lo -= by;
+    s.bounds.hi -= by;
+    for p in &mut s.patches {
+        for v in &mut p.vertices {
+            *v -= by;
+        }
+    }
+    s
 }
 
 /// The 3D-DDA stepper (Amanatides & Woo) over a [`Grid`]: the current cell and the t at
@@ -612,6 +704,8 @@ pub struct Dda<'g> {
 
 impl<'g> Dda<'g> {
     /// Starts the walk where the ray (t >= 0) enters the grid; `None` if it misses the grid.
+    /// The ray must be in the grid's frame: a tracer's grid takes [`Tracer::to_local`] rays
+    /// (or use [`Tracer::dda`]).
     #[inline(always)]
     pub fn new(grid: &'g Grid, ray: &Ray) -> Option<Self> {
         let (o, d) = (ray.o.to_array(), ray.d.to_array());

@@ -90,6 +90,20 @@ impl Aabb {
     }
 }
 
+/// How far from the world origin a scene may reach, in units of its largest extent: 2^22.
+///
+/// An f64 coordinate of magnitude below 2^22·E has an ulp of at most E·2^-30, so every
+/// coordinate of the scene holds at least 30 bits of its extent E. The tracers need that
+/// much: the float tracer works relative to the bounds' low corner, but the input itself
+/// (vertices, bounds, ray origins drawn on a patch in world space) is rounded at the ulp of
+/// its magnitude, and its tolerances are about that size relative to the extent — the
+/// stopping slack 1e-9 of the grid's diagonal (≈ 2^-30 E), the overlap slack 1e-9 of a cell
+/// (≈ 2^-34 E), the origins' pull of 1e-6 of a patch off its edges. Rounding coarser than
+/// that moves a ray's origin or a wall's vertex by more than the slacks absorb, and rays
+/// escape (a unit box 10^8 away loses every ray). Scenes beyond the bound are refused rather
+/// than traced wrongly; [`MAX_COORD`] still bounds the magnitude itself.
+pub const MAX_OFFSET_EXTENTS: f64 = (1u64 << 22) as f64;
+
 /// A scene: a name, the bounds every patch lies in, and the patches.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Scene {
@@ -206,6 +220,22 @@ impl Scene {
                     "bounds {:?} - {:?} must be finite, at most {MAX_COORD:e} in magnitude, with lo < hi on every axis",
                     b.lo.to_array(),
                     b.hi.to_array()
+                ),
+            ));
+        }
+        let far = b.lo.abs().max_element().max(b.hi.abs().max_element());
+        let scale = b.scale();
+        if far > MAX_OFFSET_EXTENTS * scale {
+            return Err(Error::input(
+                file,
+                "bounds",
+                format!(
+                    "bounds {:?} - {:?} reach {} from the origin, more than 2^22 = {} times their largest extent {}: coordinates that far out keep fewer than 30 bits of the scene's extent (a coordinate's ulp must be at most extent·2^-30); move the scene nearer the origin",
+                    b.lo.to_array(),
+                    b.hi.to_array(),
+                    short(far),
+                    MAX_OFFSET_EXTENTS,
+                    short(scale)
                 ),
             ));
         }

@@ -15,7 +15,6 @@ use crate::error::{Error, Result};
 use crate::fixed::check::{classify, Tolerances};
 use crate::fixed::records::HostFixed;
 use crate::machine::run::{simulate, MachineInput, RunSpec};
-use crate::reference::grid::Grid;
 use crate::reference::tracer::{Dda, Hit, PreparedRay, Ray, Tracer};
 use cases::Case;
 use glam::DVec3;
@@ -336,7 +335,10 @@ fn row(ctx: &Ctx, model: Model, bits: Option<u32>, out: &[(usize, RayOutcome)]) 
 /// The float DDA's faults on `ray`: (skipped, repeated). Each step must move one cell along
 /// one axis, in the direction's sign, into a cell the ray passes through (the middle of its
 /// t span inside the cell's box).
-fn float_dda_faults(grid: &Grid, ray: &Ray) -> (u64, u64) {
+fn float_dda_faults(tracer: &Tracer, ray: &Ray) -> (u64, u64) {
+    // The walk and the cell boxes are in the tracer's frame, so the ray is too.
+    let grid = tracer.grid();
+    let ray = &tracer.to_local(ray);
     let Some(mut dda) = Dda::new(grid, ray) else {
         return (0, 0);
     };
@@ -442,7 +444,7 @@ fn float_row(ctx: &Ctx, host30: &HostFixed) -> Row {
                     .filter(|x| e.surface.contains(&x.patch))
                     .count()
             };
-            let (skipped, repeated) = float_dda_faults(&ctx.tracer.grid, ray);
+            let (skipped, repeated) = float_dda_faults(&ctx.tracer, ray);
             let verdict = (!right).then(|| ctx.judge(host30, i, h, false));
             (
                 i,
