@@ -7,7 +7,7 @@
 //! run in opposite directions, with bit-identical end points (no T-junctions), and every
 //! patch faces into the room. Shared points are computed once from one formula: a box's
 //! coordinates come from one tick list per axis, and a point on an edge between two corners
-//! from [`edge_point`], which orders the two corners canonically so that both patches (or
+//! from `edge_point`, which orders the two corners canonically so that both patches (or
 //! walls) along the edge get the same bits. Deterministic for a seed (one `Pcg64`, as the
 //! other generators).
 //!
@@ -51,6 +51,99 @@ pub fn corpus(size: CorpusSize) -> Vec<Scene> {
         ]);
     }
     v
+}
+
+/// A corpus family as `shellsim scene gen` knows it; `--n` sets its size parameter
+/// ([`CorpusKind::n_meaning`]), `--seed` its random parts.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum CorpusKind {
+    /// The unit cube, each wall n×n quads (`subdivided_box`).
+    #[value(name = "corpus-subdivided-box")]
+    SubdividedBox,
+    /// The unit cube, each wall n×n quads of growing size (`subdivided_box` by area).
+    #[value(name = "corpus-subdivided-box-by-area")]
+    SubdividedBoxByArea,
+    /// The Cornell room, each wall n×n (`subdivided_cornell`).
+    #[value(name = "corpus-subdivided-cornell")]
+    SubdividedCornell,
+    /// A jittered hexahedron, each triangle split n² (`slanted_room_subdivided`).
+    #[value(name = "corpus-slanted-room")]
+    SlantedRoom,
+    /// The convex hull of n random points on a sphere (`convex_hull_room`).
+    #[value(name = "corpus-convex-hull")]
+    ConvexHull,
+    /// A room on the boundaries of n grid cells per unit (`cell_boundary_room`).
+    #[value(name = "corpus-cell-boundary-room")]
+    CellBoundaryRoom,
+    /// The Cornell room in millimetres; no --n (`millimetre_cornell`).
+    #[value(name = "corpus-millimetre-cornell")]
+    MillimetreCornell,
+}
+
+impl CorpusKind {
+    /// Every corpus kind.
+    pub const ALL: [CorpusKind; 7] = [
+        CorpusKind::SubdividedBox,
+        CorpusKind::SubdividedBoxByArea,
+        CorpusKind::SubdividedCornell,
+        CorpusKind::SlantedRoom,
+        CorpusKind::ConvexHull,
+        CorpusKind::CellBoundaryRoom,
+        CorpusKind::MillimetreCornell,
+    ];
+
+    /// What `--n` means for the kind, its default and its range; `None` when the kind
+    /// takes no size.
+    pub fn n_meaning(self) -> Option<(&'static str, usize, std::ops::RangeInclusive<usize>)> {
+        match self {
+            CorpusKind::SubdividedBox | CorpusKind::SubdividedBoxByArea => {
+                Some(("tiles per wall side", 8, 1..=1000))
+            }
+            CorpusKind::SubdividedCornell => Some(("tiles per wall side", 6, 1..=1000)),
+            CorpusKind::SlantedRoom => Some(("splits per triangle side", 1, 1..=1000)),
+            CorpusKind::ConvexHull => Some(("points", 200, 4..=20_000)),
+            CorpusKind::CellBoundaryRoom => Some(("grid cells per unit", 20, 1..=1000)),
+            CorpusKind::MillimetreCornell => None,
+        }
+    }
+
+    /// Builds the kind at size `n` (its default when `None`) and `seed` (used by the
+    /// slanted room and the convex hull). An `n` out of range, or given to a kind without
+    /// a size, is an error on `--n`.
+    pub fn generate(self, n: Option<usize>, seed: u64) -> crate::error::Result<Scene> {
+        let n = match (self.n_meaning(), n) {
+            (None, None) => 0,
+            (None, Some(n)) => {
+                return Err(crate::error::Error::param(
+                    "n",
+                    format!("{n}: this corpus kind has no size; leave --n out"),
+                ))
+            }
+            (Some((what, default, range)), n) => {
+                let n = n.unwrap_or(default);
+                if !range.contains(&n) {
+                    return Err(crate::error::Error::param(
+                        "n",
+                        format!(
+                            "{n} is out of range ({}..={} {what})",
+                            range.start(),
+                            range.end()
+                        ),
+                    ));
+                }
+                n
+            }
+        };
+        Ok(match self {
+            CorpusKind::SubdividedBox => subdivided_box(n, DVec3::ONE, false),
+            CorpusKind::SubdividedBoxByArea => subdivided_box(n, DVec3::ONE, true),
+            CorpusKind::SubdividedCornell => subdivided_cornell(n),
+            CorpusKind::SlantedRoom => slanted_room_subdivided(seed, n),
+            CorpusKind::ConvexHull => convex_hull_room(n, seed),
+            CorpusKind::CellBoundaryRoom => cell_boundary_room(grid(1, n)),
+            CorpusKind::MillimetreCornell => millimetre_cornell(),
+        })
+    }
 }
 
 // ---------------------------------------------------------------------------------------
@@ -729,6 +822,25 @@ mod tests {
             assert_closed(&s);
             assert_faces_inward(&s);
         }
+    }
+
+    #[test]
+    fn corpus_kinds_generate_with_defaults_and_check_n() {
+        use clap::ValueEnum;
+        assert_eq!(CorpusKind::value_variants(), &CorpusKind::ALL);
+        for k in CorpusKind::ALL {
+            let s = k.generate(None, 1).unwrap();
+            assert_closed(&s);
+            match k.n_meaning() {
+                Some((_, _, range)) => {
+                    assert!(k.generate(Some(range.end() + 1), 1).is_err());
+                    assert!(k.generate(Some(range.start() - 1), 1).is_err());
+                }
+                None => assert!(k.generate(Some(3), 1).is_err()),
+            }
+        }
+        let s = CorpusKind::CellBoundaryRoom.generate(Some(10), 1).unwrap();
+        assert_eq!(s.name, "corpus-cell-boundary-room-10");
     }
 
     #[test]
