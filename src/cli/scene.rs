@@ -5,6 +5,7 @@ use crate::error::Result;
 use crate::output::{check_outputs, Output};
 use crate::reference::orient::outward_faces;
 use crate::reference::tracer::Tracer;
+use crate::scene::gen::corpus::CorpusKind;
 use crate::scene::{self, gen, obj, Aabb};
 use clap::Subcommand;
 use std::path::{Path, PathBuf};
@@ -13,12 +14,18 @@ use std::path::{Path, PathBuf};
 pub enum SceneCmd {
     /// Generate a built-in scene (deterministic for a seed) and write it as JSON.
     Gen {
-        /// Which scene.
+        /// Which scene: a built-in kind, or a corpus kind (`corpus-*`, closed scenes
+        /// nobody tuned for; `--n` sets their size).
         #[arg(value_enum)]
-        kind: gen::Kind,
+        kind: GenKind,
         /// Seed of the random parts.
         #[arg(long, default_value_t = gen::DEFAULT_SEED)]
         seed: u64,
+        /// Size of a corpus kind: tiles per wall side (boxes, Cornell), splits per
+        /// triangle side (slanted room), points (convex hull), cells per unit (cell
+        /// boundary room). Default: the kind's own.
+        #[arg(long)]
+        n: Option<usize>,
         /// Output file (JSON; `-` for standard output).
         #[arg(short, long)]
         out: PathBuf,
@@ -59,14 +66,28 @@ pub enum SceneCmd {
 pub fn run(c: SceneCmd) -> Result<()> {
     match c {
         SceneCmd::Info { file, grid, edit } => info(&file, grid, &edit),
-        SceneCmd::Gen { kind, seed, out } => {
+        SceneCmd::Gen { kind, seed, n, out } => {
             check_outputs(&[Output::file("--out", &out)])?;
-            let scene = gen::generate(kind, seed);
+            let scene = match kind {
+                GenKind::Builtin(k) => {
+                    if let Some(n) = n {
+                        return Err(crate::error::Error::param(
+                            "n",
+                            format!(
+                                "{n}: {} has no size; --n is for the corpus-* kinds",
+                                k.name()
+                            ),
+                        ));
+                    }
+                    gen::generate(k, seed)
+                }
+                GenKind::Corpus(k) => k.generate(n, seed)?,
+            };
             scene.validate(&out)?;
             scene.save_json(&out)?;
             crate::output::outln!(
                 "{}: {} patches (seed {seed}) written to {}",
-                kind.name(),
+                scene.name,
                 scene.patches.len(),
                 out.display()
             );
@@ -94,6 +115,42 @@ pub fn run(c: SceneCmd) -> Result<()> {
             crate::output::outln!("{}: {}", file.display(), report.summary());
             crate::output::outln!("written to {}", out.display());
             Ok(())
+        }
+    }
+}
+
+/// What `scene gen` builds: a built-in [`gen::Kind`] or a [`CorpusKind`], one clap value
+/// list of both.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GenKind {
+    Builtin(gen::Kind),
+    Corpus(CorpusKind),
+}
+
+const GEN_KINDS: [GenKind; gen::Kind::ALL.len() + CorpusKind::ALL.len()] = {
+    let mut all =
+        [GenKind::Builtin(gen::Kind::Scene1); gen::Kind::ALL.len() + CorpusKind::ALL.len()];
+    let mut i = 0;
+    while i < gen::Kind::ALL.len() {
+        all[i] = GenKind::Builtin(gen::Kind::ALL[i]);
+        i += 1;
+    }
+    let mut j = 0;
+    while j < CorpusKind::ALL.len() {
+        all[i + j] = GenKind::Corpus(CorpusKind::ALL[j]);
+        j += 1;
+    }
+    all
+};
+
+impl clap::ValueEnum for GenKind {
+    fn value_variants<'a>() -> &'a [Self] {
+        &GEN_KINDS
+    }
+    fn to_possible_value(&self) -> Option<clap::builder::PossibleValue> {
+        match self {
+            GenKind::Builtin(k) => k.to_possible_value(),
+            GenKind::Corpus(k) => k.to_possible_value(),
         }
     }
 }

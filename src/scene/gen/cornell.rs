@@ -33,7 +33,7 @@ pub(super) const CB: [[f64; 3]; 8] = [
     [0.0, 548.8, 0.0],     // 7: ceiling, front, x = 0
 ];
 
-const CORNELL_WHITE: Spectrum = Spectrum::Grey(0.75);
+pub(super) const CORNELL_WHITE: Spectrum = Spectrum::Grey(0.75);
 pub(super) const CORNELL_RED: Spectrum = Spectrum::Rgb([0.63, 0.065, 0.05]);
 pub(super) const CORNELL_GREEN: Spectrum = Spectrum::Rgb([0.14, 0.45, 0.091]);
 

@@ -24,8 +24,14 @@
 //! (into the room). Boxes resting on the floor have no bottom face; random patches never
 //! intersect each other (`scene1`'s are kept 0.02 apart, the lattices' each lie in their
 //! own cell) nor touch the walls.
+//!
+//! [`corpus`] holds closed scenes the model was not tuned for (subdivided boxes, the
+//! Cornell room subdivided and in millimetres, a jittered hexahedron, convex hulls of
+//! random points, a room on cell boundaries): conforming meshes facing inward, built by
+//! their own functions rather than as [`Kind`]s.
 
 mod cornell;
+pub mod corpus;
 mod paper;
 mod stress;
 
