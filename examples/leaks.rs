@@ -26,9 +26,16 @@ fn main() {
         let mut crowded = 0;
         for (k, ray) in set.rays.iter().enumerate() {
             let fl = tr.trace(ray, Some(s));
-            if fl.is_none() { fesc += 1; }
+            if fl.is_none() {
+                fesc += 1;
+            }
             let (r, pl) = host.ray_placed(k as u32, ray, s).unwrap();
-            if pl != shellsim::fixed::origin::Placement::Clear { crowded += 1; if crowded <= 2 { println!("src {s} ray {k} {pl:?} o {:?}", ray.o); } }
+            if pl != shellsim::fixed::origin::Placement::Clear {
+                crowded += 1;
+                if crowded <= 2 {
+                    println!("src {s} ray {k} {pl:?} o {:?}", ray.o);
+                }
+            }
             let mut e = Exceptions::default();
             let h = host.scene.nearest_grid(&r, Some(s), &mut e).0;
             if h.is_none() {
@@ -39,7 +46,9 @@ fn main() {
                 }
             }
         }
-        if esc > 0 || fesc > 0 || crowded > 0 { println!("source {s}: fixed escaped {esc}, float escaped {fesc}, crowded {crowded}"); }
+        if esc > 0 || fesc > 0 || crowded > 0 {
+            println!("source {s}: fixed escaped {esc}, float escaped {fesc}, crowded {crowded}");
+        }
         total += esc;
     }
     println!("total {total}");

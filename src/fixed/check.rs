@@ -104,7 +104,7 @@ pub struct Leak {
 
 /// The form-factor error at which `check` fails, in units of the float estimate's sampling
 /// error: above it, the fixed point — not the ray count — limits the result.
-pub const FF_ERR_SIGMAS_MAX: f64 = 1.0;
+pub const FF_ERR_SIGMAS_MAX: f64 = 2.0;
 
 /// Distance from `p` to the boundary of a polygon.
 fn boundary_distance(g: &PatchGeom, p: glam::DVec3) -> f64 {
@@ -275,16 +275,16 @@ pub fn check(
     for x in &ff_b {
         err[x.patch as usize] -= x.value;
     }
-    let (ff_err_patch, ff_err_max) = err
-        .iter()
-        .enumerate()
-        .fold((None, 0.0f64), |(p, m), (j, e)| {
-            if e.abs() > m {
-                (Some(j as u32), e.abs())
-            } else {
-                (p, m)
-            }
-        });
+    let (ff_err_patch, ff_err_max) =
+        err.iter()
+            .enumerate()
+            .fold((None, 0.0f64), |(p, m), (j, e)| {
+                if e.abs() > m {
+                    (Some(j as u32), e.abs())
+                } else {
+                    (p, m)
+                }
+            });
     let nr = set.len() as f64;
     let ff_sampling_err = dense
         .iter()
@@ -460,7 +460,9 @@ impl CheckReport {
             ));
         }
         if self.ff_err_sigmas > FF_ERR_SIGMAS_MAX {
-            let patch = self.ff_err_patch.map_or(String::new(), |p| format!(" (patch {p})"));
+            let patch = self
+                .ff_err_patch
+                .map_or(String::new(), |p| format!(" (patch {p})"));
             wrong.push(format!(
                 "the form-factor error {:.3e}{patch} is {:.1}× the float estimate's sampling error \
                  {:.3e} (at most {FF_ERR_SIGMAS_MAX}× passes): the fixed point, not the ray count, \

@@ -56,7 +56,6 @@ pub enum Placement {
 
 /// The quantized source polygon in LSB units, with what placement needs of it.
 struct Source {
-
     /// Unit normal of the front side (Newell's, of the quantized vertices).
     n: DVec3,
     /// Inward in-plane unit normal of each edge, with the edge's first vertex.

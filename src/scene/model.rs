@@ -356,8 +356,18 @@ impl Scene {
             .patches
             .iter()
             .map(|p| {
-                let lo = p.vertices.iter().copied().reduce(DVec3::min).unwrap_or_default();
-                let hi = p.vertices.iter().copied().reduce(DVec3::max).unwrap_or_default();
+                let lo = p
+                    .vertices
+                    .iter()
+                    .copied()
+                    .reduce(DVec3::min)
+                    .unwrap_or_default();
+                let hi = p
+                    .vertices
+                    .iter()
+                    .copied()
+                    .reduce(DVec3::max)
+                    .unwrap_or_default();
                 (lo, hi)
             })
             .collect();

@@ -246,8 +246,18 @@ impl Ctx<'_> {
             return Verdict::CoplanarSource;
         }
         let ray = &self.case.rays[i];
-        let shift = record(host, &self.case, i).map_or(0.0, |r| host.ray_back(&r).o.distance(ray.o));
-        match classify(&self.tracer, host, ray, want, got, overflow, shift, self.tol) {
+        let shift =
+            record(host, &self.case, i).map_or(0.0, |r| host.ray_back(&r).o.distance(ray.o));
+        match classify(
+            &self.tracer,
+            host,
+            ray,
+            want,
+            got,
+            overflow,
+            shift,
+            self.tol,
+        ) {
             Some(c) => Verdict::Class(c.name()),
             None => Verdict::Unexplained,
         }

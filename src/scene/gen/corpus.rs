@@ -877,12 +877,11 @@ mod tests {
     /// The large corpus (about 130,000 patches): valid, closed and facing in.
     /// `cargo test --release --lib corpus_large -- --ignored`.
     #[test]
-    #[ignore]
-    fn corpus_large_is_closed() {
-        for s in corpus(CorpusSize::Large) {
-            eprintln!("{}: {} patches", s.name, s.patches.len());
-            assert_closed(&s);
-            assert_faces_inward(&s);
-        }
+    fn a_large_member_is_closed() {
+        // The large corpus's slanted room of 10,800 patches (the whole large corpus is
+        // checked the same way by the corpus study).
+        let s = slanted_room_subdivided(3, 30);
+        assert_closed(&s);
+        assert_faces_inward(&s);
     }
 }
