@@ -1,4 +1,4 @@
-//! Diagnostic (temporary): prints the fixed model's escaped rays of a scene.
+//! Diagnostic: lists the rays the fixed-point model loses on a scene (`cargo run --release --example leaks -- SCENE RAYS [rings|malley|random]`).
 use shellsim::fixed::records::HostFixed;
 use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::tracer::Tracer;

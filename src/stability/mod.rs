@@ -246,8 +246,7 @@ impl Ctx<'_> {
             return Verdict::CoplanarSource;
         }
         let ray = &self.case.rays[i];
-        let shift =
-            record(host, &self.case, i).map_or(0.0, |r| host.ray_back(&r).o.distance(ray.o));
+        let shift = record(host, self.case, i).map_or(0.0, |r| host.ray_back(&r).o.distance(ray.o));
         match classify(
             &self.tracer,
             host,
