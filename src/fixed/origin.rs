@@ -58,8 +58,10 @@ pub enum Placement {
 struct Source {
     /// Unit normal of the front side (Newell's, of the quantized vertices).
     n: DVec3,
-    /// Inward in-plane unit normal of each edge, with the edge's first vertex.
-    inward: Vec<(DVec3, DVec3)>,
+    /// Inward in-plane unit normal of each edge, with the edge's first vertex (the first
+    /// `edges` entries; an edge of zero length has none).
+    inward: [(DVec3, DVec3); 4],
+    edges: usize,
     centroid: DVec3,
 }
 
@@ -69,30 +71,32 @@ fn raw(v: [i64; 3]) -> DVec3 {
 
 impl Source {
     fn new(p: &PatchRecord) -> Option<Source> {
-        let v: Vec<DVec3> = p.v[..p.n_verts as usize].iter().map(|&x| raw(x)).collect();
+        let v = &p.v.map(raw)[..p.n_verts as usize];
         let mut n = DVec3::ZERO;
         for k in 0..v.len() {
-            let (a, b) = (v[k], v[(k + 1) % v.len()]);
-            n += a.cross(b);
+            n += v[k].cross(v[(k + 1) % v.len()]);
         }
         let n = n.try_normalize()?;
-        let inward = (0..v.len())
-            .filter_map(|k| {
-                let e = v[(k + 1) % v.len()] - v[k];
-                n.cross(e).try_normalize().map(|u| (v[k], u))
-            })
-            .collect();
+        let mut inward = [(DVec3::ZERO, DVec3::ZERO); 4];
+        let mut edges = 0;
+        for k in 0..v.len() {
+            if let Some(u) = n.cross(v[(k + 1) % v.len()] - v[k]).try_normalize() {
+                inward[edges] = (v[k], u);
+                edges += 1;
+            }
+        }
         let centroid = v.iter().copied().sum::<DVec3>() / v.len() as f64;
         Some(Source {
             n,
             inward,
+            edges,
             centroid,
         })
     }
 
     /// The least in-plane distance from `p` to an edge line (negative outside).
     fn clearance(&self, p: DVec3) -> f64 {
-        self.inward
+        self.inward[..self.edges]
             .iter()
             .map(|&(a, u)| u.dot(p - a))
             .fold(f64::INFINITY, f64::min)
@@ -104,7 +108,7 @@ impl Source {
     fn inset(&self, p: DVec3, inset: f64) -> DVec3 {
         let mut q = p - self.n * self.n.dot(p - self.centroid);
         for _ in 0..4 {
-            for &(a, u) in &self.inward {
+            for &(a, u) in &self.inward[..self.edges] {
                 let d = u.dot(q - a);
                 if d < inset {
                     q += u * (inset - d);
@@ -188,9 +192,9 @@ fn crosses_from_behind(o: DVec3, e: DVec3, p: &PatchRecord, slack: f64) -> bool 
     })
 }
 
-/// The patch ids listed in the cells that the box `[o − r, o + r]` (LSB units) overlaps.
-fn near_ids(cells: &CellTable, o: DVec3, r: f64, out: &mut Vec<u32>) {
-    out.clear();
+/// The first patch id listed in the cells that the box `[o − r, o + r]` (LSB units)
+/// overlaps for which `f` is true (a patch listed in several cells may be seen again).
+fn find_near(cells: &CellTable, o: DVec3, r: f64, mut f: impl FnMut(u32) -> bool) -> Option<u32> {
     let w = cells.cell_raw as f64;
     let mut lo = [0u32; 3];
     let mut hi = [0u32; 3];
@@ -202,25 +206,21 @@ fn near_ids(cells: &CellTable, o: DVec3, r: f64, out: &mut Vec<u32>) {
     for k in lo[2]..=hi[2] {
         for j in lo[1]..=hi[1] {
             for i in lo[0]..=hi[0] {
-                out.extend_from_slice(cells.patches_in(cells.index([i, j, k])));
+                let list = cells.patches_in(cells.index([i, j, k]));
+                if let Some(&id) = list.iter().find(|&&id| f(id)) {
+                    return Some(id);
+                }
             }
         }
     }
-    out.sort_unstable();
-    out.dedup();
+    None
 }
 
 /// Checks a lattice origin `o` for a ray leaving `source`: `None` when it is clear (the
 /// three conditions of the module's comment; the source's twins are passed through like
 /// the source), else the patch in the way (or `None` inside
 /// `Some` when the source itself is too near).
-fn blocker(
-    o: DVec3,
-    src: &Source,
-    source: u32,
-    scene: &FixedScene,
-    ids: &mut Vec<u32>,
-) -> Option<Option<u32>> {
+fn blocker(o: DVec3, src: &Source, source: u32, scene: &FixedScene) -> Option<Option<u32>> {
     let (patches, cells) = (&scene.patches, &scene.cells);
     let twins = scene.twins_of(Some(source));
     // In front of the source's plane and over its face.
@@ -238,24 +238,29 @@ fn blocker(
     }
     // Clear of every other patch, and joined to the face without entering one from behind.
     let foot = o - src.n * (height + 1.0);
-    near_ids(cells, o, height + 1.0 + CLEAR_LSB, ids);
-    for &id in ids.iter() {
+    let by = find_near(cells, o, height + 1.0 + CLEAR_LSB, |id| {
         if id == source || twins.contains(&id) {
-            continue;
+            return false;
         }
         let p = &patches[id as usize];
-        if distance(o, p) < CLEAR_LSB || crosses_from_behind(o, foot, p, 0.25) {
-            return Some(Some(id));
-        }
-    }
-    None
+        // Most listed patches lie beyond the reach of both tests by their boxes alone.
+        let reach = height + 1.0 + CLEAR_LSB;
+        let far = (0..3).any(|a| {
+            let vs = p.v[..p.n_verts as usize].iter().map(|v| v[a] as f64);
+            let (lo, hi) = vs.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), x| {
+                (l.min(x), h.max(x))
+            });
+            o[a] < lo - reach || o[a] > hi + reach
+        });
+        !far && (distance(o, p) < CLEAR_LSB || crosses_from_behind(o, foot, p, 0.25))
+    });
+    by.map(Some)
 }
 
 /// The lattice origin (raw coordinates) of a ray leaving `source` from `o` (LSB units, on
 /// the float source), and how it was placed. `None` when the source is degenerate.
 pub fn place(o: DVec3, source: u32, scene: &FixedScene) -> Option<([i64; 3], Placement)> {
     let src = Source::new(scene.patches.get(source as usize)?)?;
-    let mut ids = Vec::new();
     let lattice = |p: DVec3| [p.x.round() as i64, p.y.round() as i64, p.z.round() as i64];
     let mut last = None;
     let mut inset = INSET_LSB;
@@ -266,7 +271,7 @@ pub fn place(o: DVec3, source: u32, scene: &FixedScene) -> Option<([i64; 3], Pla
             src.inset(o, inset)
         };
         let q = lattice(base + src.n * LIFT_LSB);
-        match blocker(raw(q), &src, source, scene, &mut ids) {
+        match blocker(raw(q), &src, source, scene) {
             None => return Some((q, Placement::Clear)),
             Some(by) => last = Some((q, Placement::Crowded { by })),
         }
