@@ -38,7 +38,7 @@ fn main() {
             }
             let mut e = Exceptions::default();
             let h = host.scene.nearest_grid(&r, Some(s), &mut e).0;
-            if h.is_none() {
+            if h.is_none() && fl.is_some() {
                 esc += 1;
                 let hb = host.scene.nearest_brute(&r, Some(s), &mut e);
                 if esc <= 3 {

@@ -139,6 +139,9 @@ pub fn run(a: &RadiosityArgs) -> Result<()> {
         );
     }
     outln!("wrote {}", a.out.display());
+    if let Some(c) = &r.comparison {
+        c.verdict()?;
+    }
     if let Some(s) = r.solutions.iter().find(|s| !s.converged) {
         return Err(Error::Check(format!(
             "{} did not converge to {} in {} iterations (residual {:.3e})",

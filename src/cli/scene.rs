@@ -209,6 +209,17 @@ fn info(file: &Path, grid: CellArg, edit: &SceneEditArgs) -> Result<()> {
         g.entries(),
         g.entries() as f64 / scene.patches.len() as f64
     );
+    let probe = crate::reference::orient::closure(scene, &tracer);
+    crate::output::outln!(
+        "closed       {}: {} of {} probe rays escaped ({} Malley rays from each patch's front){}",
+        if probe.closed() { "yes" } else { "no" },
+        probe.escaped,
+        probe.rays,
+        crate::reference::orient::ORIENT_RAYS,
+        probe
+            .open_at
+            .map_or(String::new(), |p| format!(", the first from patch {p}"))
+    );
     let names = scene.names();
     if !names.is_empty() {
         crate::output::outln!("names        {}", names_line(&names));

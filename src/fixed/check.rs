@@ -436,15 +436,17 @@ pub fn check_scene(
 
 impl CheckReport {
     /// `Err(Error::Check)` with what is wrong and what to try when (1) the fixed-point
-    /// model lost a ray the float reference found a patch for (a leak: from a closed scene
-    /// it must not happen), (2) the form-factor error exceeds the float estimate's own
+    /// model lost a ray the float reference found a patch for while the float reference
+    /// lost none (a leak from a scene closed as seen from the source), (2) the form-factor error exceeds the float estimate's own
     /// sampling error ([`FF_ERR_SIGMAS_MAX`]) — then the classes, however they file the
     /// differences, do not account for their size — or (3) some mismatch has no explanation.
     /// The message points to the JSON report `written` when one was written.
     pub fn verdict(&self, written: Option<&Path>) -> Result<()> {
         let listed = written.map_or(String::new(), |p| format!(" (listed in {})", p.display()));
         let mut wrong = Vec::new();
-        if let Some(l) = self.leaks.first() {
+        // A leak is a failure where the float reference lost none of these rays (the scene
+        // is closed as seen from the source); elsewhere it is a mismatch, classified.
+        if let (Some(l), 0) = (self.leaks.first(), self.escaped_float) {
             wrong.push(format!(
                 "{} rays escaped the fixed-point model where the float reference hit a patch{listed}; \
                  the first, ray {} from ({:.6}, {:.6}, {:.6}) along ({:.6}, {:.6}, {:.6}), left \

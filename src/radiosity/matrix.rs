@@ -5,6 +5,7 @@
 //! summary, and read back with its checks.
 
 use crate::error::{Error, Result};
+use crate::fixed::origin::Placement;
 use crate::fixed::records::HostFixed;
 use crate::machine::run::{simulate, MachineInput, RunSpec};
 use crate::output::{json_string, write_atomic};
@@ -168,6 +169,9 @@ pub struct Shared<'a> {
     /// The resolved cell size and shell radius (scene units; `config::resolve`).
     pub cell: f64,
     pub shell_radius: f64,
+    /// For the fixed and machine models: the float reference's closure probe found no
+    /// escape (`reference::orient::closure`), so a ray they lose is a leak.
+    pub closed: bool,
 }
 
 impl<'a> Shared<'a> {
@@ -187,6 +191,8 @@ impl<'a> Shared<'a> {
             Model::Float => None,
             _ => Some(HostFixed::new(scene, file, cfg.datapath, cell)?),
         };
+        let closed =
+            model != Model::Float && crate::reference::orient::closure(scene, &tracer).closed();
         Ok(Shared {
             scene,
             file,
@@ -195,6 +201,7 @@ impl<'a> Shared<'a> {
             host,
             cell,
             shell_radius,
+            closed,
         })
     }
 }
@@ -363,8 +370,8 @@ pub fn run_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<RowRun> {
 }
 
 /// `Err(Error::Check)` naming the source, the ray and where it left when the fixed-point
-/// model or the machine lost a ray of `run` that the float reference traces to a patch —
-/// a leak, which the origin placement (`crate::fixed::origin`) rules out for a closed scene.
+/// model or the machine lost a ray of `run` that the float reference traces to a patch in
+/// a closed scene — a leak, which the origin placement (`crate::fixed::origin`) rules out.
 /// Only the rays that escaped are traced again.
 fn leak_check(sh: &Shared, spec: &MatrixSpec, i: u32, run: &RowRun) -> Result<()> {
     let escaped = run.hits.iter().filter(|h| h.is_none()).count();
@@ -372,10 +379,11 @@ fn leak_check(sh: &Shared, spec: &MatrixSpec, i: u32, run: &RowRun) -> Result<()
         let ray = &run.set.rays[k];
         if let Some(h) = sh.tracer.trace(ray, Some(i)) {
             let p = ray.o + ray.d * h.t;
+            let why = crowded_hint(sh, ray, i);
             return Err(Error::Check(format!(
                 "source {i}: the {} model lost {escaped} rays; ray {k} from ({:.6}, {:.6}, {:.6}) along \
                  ({:.6}, {:.6}, {:.6}) left the scene where the float reference meets patch {} at \
-                 ({:.6}, {:.6}, {:.6})",
+                 ({:.6}, {:.6}, {:.6}){why}",
                 spec.model.name(),
                 ray.o.x, ray.o.y, ray.o.z, ray.d.x, ray.d.y, ray.d.z,
                 h.patch, p.x, p.y, p.z
@@ -385,10 +393,24 @@ fn leak_check(sh: &Shared, spec: &MatrixSpec, i: u32, run: &RowRun) -> Result<()
     Ok(())
 }
 
+/// Why a leak could happen, when the origin placement says so: no lattice point near the
+/// ray's origin lies 2 LSB clear of every patch (`Placement::Crowded`).
+fn crowded_hint(sh: &Shared, ray: &crate::reference::tracer::Ray, source: u32) -> String {
+    let placed = sh.host.as_ref().and_then(|h| h.ray_placed(0, ray, source));
+    match placed {
+        Some((_, Placement::Crowded { by })) => format!(
+            ": no origin 2 LSB clear of every patch exists there{} — the datapath is too \
+             narrow for the scene (more fractional bits)",
+            by.map_or(String::new(), |p| format!(" (patch {p} is in the way)"))
+        ),
+        _ => String::new(),
+    }
+}
+
 /// One source's row on `spec.model` (the machine's figures too, for the machine).
 pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Option<MachineRow>)> {
     let run = run_row(sh, spec, i)?;
-    if spec.model != Model::Float {
+    if sh.closed {
         leak_check(sh, spec, i, &run)?;
     }
     let mr = run.stats.as_ref().map(|s| MachineRow {

@@ -69,3 +69,46 @@ pub fn outward_faces(scene: &Scene, tracer: &Tracer) -> Vec<u32> {
         })
         .collect()
 }
+
+/// What the closure probe found: a scene is *closed* when no probe ray escapes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct Closure {
+    /// Probe rays cast ([`ORIENT_RAYS`] Malley rays from each patch's front side).
+    pub rays: u64,
+    pub escaped: u64,
+    /// A patch from which a probe ray escaped (the smallest id), if any.
+    pub open_at: Option<u32>,
+}
+
+impl Closure {
+    /// True when no probe ray escaped: a leak from this scene is a model's fault.
+    pub fn closed(&self) -> bool {
+        self.escaped == 0
+    }
+}
+
+/// The closure probe of `scene` with the float reference: [`ORIENT_RAYS`] Malley rays
+/// (seed [`ORIENT_SEED`]) from every patch's front side; deterministic.
+pub fn closure(scene: &Scene, tracer: &Tracer) -> Closure {
+    let escaped: Vec<u64> = (0..scene.patches.len() as u32)
+        .into_par_iter()
+        .map(|id| {
+            let set = hemisphere_rays(
+                &scene.patches[id as usize],
+                ORIENT_RAYS,
+                Directions::Malley,
+                Origins::Patch,
+                ORIENT_SEED,
+            );
+            set.rays
+                .iter()
+                .filter(|r| tracer.trace(r, Some(id)).is_none())
+                .count() as u64
+        })
+        .collect();
+    Closure {
+        rays: (ORIENT_RAYS * scene.patches.len()) as u64,
+        escaped: escaped.iter().sum(),
+        open_at: escaped.iter().position(|&e| e > 0).map(|p| p as u32),
+    }
+}

@@ -146,6 +146,8 @@ pub fn load_with(path: &Path, edits: &Edits) -> Result<Loaded> {
         (Scene::load_json(path)?, Vec::new())
     };
     edits.apply(&mut scene, path)?;
+    let mut warnings = warnings;
+    warnings.extend(scene.twins_warning());
     Ok(Loaded { scene, warnings })
 }
 

@@ -347,95 +347,127 @@ impl Scene {
     /// pass through its twins (the float reference, the untimed fixed-point model and the
     /// machine exclude them with the source), so that no model's answer turns on how the
     /// rounding orders two surfaces closer than the datapath can tell apart. Ascending ids;
-    /// symmetric. A sweep over the x extents keeps it near-linear for scenes that are not
-    /// one big plane.
+    /// symmetric.
     pub fn twins(&self) -> Vec<Vec<u32>> {
         let n = self.patches.len();
         let tol = TWIN_TOL * self.bounds.scale();
-        let boxes: Vec<(DVec3, DVec3)> = self
-            .patches
-            .iter()
-            .map(|p| {
-                let lo = p
-                    .vertices
-                    .iter()
-                    .copied()
-                    .reduce(DVec3::min)
-                    .unwrap_or_default();
-                let hi = p
-                    .vertices
-                    .iter()
-                    .copied()
-                    .reduce(DVec3::max)
-                    .unwrap_or_default();
-                (lo, hi)
-            })
-            .collect();
-        let mut order: Vec<u32> = (0..n as u32).collect();
-        order.sort_by(|&a, &b| boxes[a as usize].0.x.total_cmp(&boxes[b as usize].0.x));
-        let mut out = vec![Vec::new(); n];
-        for (k, &i) in order.iter().enumerate() {
-            let (lo_i, hi_i) = boxes[i as usize];
-            for &j in &order[k + 1..] {
-                let (lo_j, hi_j) = boxes[j as usize];
-                if lo_j.x > hi_i.x + tol {
-                    break;
-                }
-                let apart = (0..3).any(|a| lo_j[a] > hi_i[a] + tol || lo_i[a] > hi_j[a] + tol);
-                if !apart && self.coplanar_overlap(i, j, tol) {
-                    out[i as usize].push(j);
-                    out[j as usize].push(i);
+        // Candidates share a bucket of a coarse grid over the bounds (a patch is put in every
+        // bucket its box, widened by the tolerance, overlaps): near-linear for tiled walls.
+        const BUCKETS: f64 = 32.0;
+        let lo = self.bounds.lo;
+        let inv = BUCKETS / self.bounds.scale();
+        let top = BUCKETS as i64 - 1;
+        let cell = |x: DVec3| {
+            (((x - lo) * inv).floor())
+                .as_i64vec3()
+                .clamp(glam::I64Vec3::ZERO, glam::I64Vec3::splat(top))
+        };
+        let mut buckets: std::collections::HashMap<glam::I64Vec3, Vec<u32>> =
+            std::collections::HashMap::new();
+        for (id, p) in self.patches.iter().enumerate() {
+            let b_lo = p
+                .vertices
+                .iter()
+                .copied()
+                .reduce(DVec3::min)
+                .unwrap_or_default();
+            let b_hi = p
+                .vertices
+                .iter()
+                .copied()
+                .reduce(DVec3::max)
+                .unwrap_or_default();
+            let (c0, c1) = (cell(b_lo - tol), cell(b_hi + tol));
+            for z in c0.z..=c1.z {
+                for y in c0.y..=c1.y {
+                    for x in c0.x..=c1.x {
+                        buckets
+                            .entry(glam::I64Vec3::new(x, y, z))
+                            .or_default()
+                            .push(id as u32);
+                    }
                 }
             }
         }
+        let mut pairs: Vec<(u32, u32)> = Vec::new();
+        for ids in buckets.values() {
+            for (k, &i) in ids.iter().enumerate() {
+                for &j in &ids[k + 1..] {
+                    if self.coplanar_overlap(i, j, tol) {
+                        pairs.push((i, j));
+                    }
+                }
+            }
+        }
+        let mut out = vec![Vec::new(); n];
+        for (i, j) in pairs {
+            out[i as usize].push(j);
+            out[j as usize].push(i);
+        }
         for t in &mut out {
             t.sort_unstable();
+            t.dedup();
         }
         out
+    }
+
+    /// What a person loading the scene should know of its twins (`None` when it has none):
+    /// the pairs with their names, the first eight listed.
+    pub fn twins_warning(&self) -> Option<String> {
+        let pairs = self.twin_pairs();
+        if pairs.is_empty() {
+            return None;
+        }
+        let name = |i: u32| {
+            self.patches[i as usize]
+                .label()
+                .map_or(format!("{i}"), |l| {
+                    format!("{i} ({})", crate::error::shown(l))
+                })
+        };
+        let mut list: Vec<String> = pairs
+            .iter()
+            .take(8)
+            .map(|&(i, j)| format!("{} and {}", name(i), name(j)))
+            .collect();
+        if pairs.len() > 8 {
+            list.push(format!("{} more", pairs.len() - 8));
+        }
+        Some(format!(
+            "{} pairs of coplanar overlapping patches (twins: a source's rays pass through its twins in every model): {}",
+            pairs.len(),
+            list.join(", ")
+        ))
+    }
+
+    /// The coplanar twin pairs `(i, j)`, `i < j`, ascending (see [`Scene::twins`]).
+    pub fn twin_pairs(&self) -> Vec<(u32, u32)> {
+        self.twins()
+            .iter()
+            .enumerate()
+            .flat_map(|(i, t)| {
+                t.iter()
+                    .filter(move |&&j| j > i as u32)
+                    .map(move |&j| (i as u32, j))
+            })
+            .collect()
     }
 
     /// Whether patch `j` lies in patch `i`'s plane within `tol` (and `i` in `j`'s) and
     /// overlaps it by more than `tol` in that plane.
     fn coplanar_overlap(&self, i: u32, j: u32, tol: f64) -> bool {
-        let (a, b) = (&self.patches[i as usize], &self.patches[j as usize]);
-        let on = |p: &Patch, q: &Patch| {
-            let (n, c) = (p.normal(), p.vertices[0]);
-            q.vertices.iter().all(|v| (*v - c).dot(n).abs() <= tol)
-        };
-        if !(on(a, b) && on(b, a)) {
-            return false;
-        }
-        let m = a.normal().abs();
-        let k = if m.x >= m.y && m.x >= m.z {
-            0
-        } else if m.y >= m.z {
-            1
-        } else {
-            2
-        };
-        let flat = |v: &[DVec3]| -> Vec<[f64; 2]> {
-            v.iter()
-                .map(|p| {
-                    let a = p.to_array();
-                    [a[(k + 1) % 3], a[(k + 2) % 3]]
-                })
-                .collect()
-        };
-        polygons_overlap(&flat(&a.vertices), &flat(&b.vertices), tol)
+        self.lies_on(j, i, tol) && self.lies_on(i, j, tol)
     }
 
-    /// The patches lying on patch `id`: in its plane (every vertex within 1e-9 of the
-    /// scene's scale of it, whichever way they face) and overlapping it with positive area
-    /// — a tile on the floor. Rays leaving `id` meet them at t ≈ 0, where the answer turns
-    /// on rounding. Patches that only touch it along an edge or at a vertex are not listed.
-    pub fn lying_on(&self, id: u32) -> Vec<u32> {
-        let Some(src) = self.patches.get(id as usize) else {
-            return Vec::new();
-        };
-        let eps = 1e-9 * self.bounds.scale();
-        let n = src.normal();
-        let c = src.vertices[0];
-        // The plane's coordinates: drop the normal's largest axis.
+    /// Whether every vertex of patch `j` lies within `tol` of patch `i`'s plane and `j`
+    /// overlaps `i` by more than `tol` there (compared in the plane's coordinates: the
+    /// normal's largest axis dropped).
+    fn lies_on(&self, j: u32, i: u32, tol: f64) -> bool {
+        let (src, p) = (&self.patches[i as usize], &self.patches[j as usize]);
+        let (n, c) = (src.normal(), src.vertices[0]);
+        if !p.vertices.iter().all(|v| (*v - c).dot(n).abs() <= tol) {
+            return false;
+        }
         let a = n.abs();
         let k = if a.x >= a.y && a.x >= a.z {
             0
@@ -448,22 +480,24 @@ impl Scene {
             v.iter()
                 .map(|p| {
                     let a = p.to_array();
-                    match k {
-                        0 => [a[1], a[2]],
-                        1 => [a[2], a[0]],
-                        _ => [a[0], a[1]],
-                    }
+                    [a[(k + 1) % 3], a[(k + 2) % 3]]
                 })
                 .collect()
         };
-        let a = flat(&src.vertices);
+        polygons_overlap(&flat(&src.vertices), &flat(&p.vertices), tol)
+    }
+
+    /// The patches lying on patch `id`: in its plane (every vertex within 1e-9 of the
+    /// scene's scale of it, whichever way they face) and overlapping it with positive area
+    /// — a tile on the floor. Rays leaving `id` meet them at t ≈ 0, where the answer turns
+    /// on rounding. Patches that only touch it along an edge or at a vertex are not listed.
+    pub fn lying_on(&self, id: u32) -> Vec<u32> {
+        if id as usize >= self.patches.len() {
+            return Vec::new();
+        }
+        let eps = 1e-9 * self.bounds.scale();
         (0..self.patches.len() as u32)
-            .filter(|&j| j != id)
-            .filter(|&j| {
-                let p = &self.patches[j as usize];
-                p.vertices.iter().all(|v| (*v - c).dot(n).abs() <= eps)
-                    && polygons_overlap(&a, &flat(&p.vertices), eps)
-            })
+            .filter(|&j| j != id && self.lies_on(j, id, eps))
             .collect()
     }
 }
