@@ -1,4 +1,5 @@
-//! Diagnostic: lists the rays the fixed-point model loses on a scene (`cargo run --release --example leaks -- SCENE RAYS [rings|malley|random]`).
+//! Diagnostic: lists the rays the fixed-point model loses where the float reference hits a
+//! patch (`[FRAC_BITS=F] cargo run --release --example leaks -- SCENE RAYS [rings|malley|random]`).
 use shellsim::fixed::records::HostFixed;
 use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::tracer::Tracer;
@@ -16,11 +17,20 @@ fn main() {
     };
     let scene = shellsim::scene::Scene::load(path).unwrap();
     let tr = Tracer::new(&scene, 0.05 * scene.bounds.scale()).unwrap();
-    let cfg = shellsim_hw::config::paper().datapath;
+    let mut cfg = shellsim_hw::config::paper().datapath;
+    if let Some(f) = std::env::var("FRAC_BITS").ok().and_then(|f| f.parse().ok()) {
+        cfg.frac_bits = f;
+        cfg.t_frac_bits = f;
+    }
     let host = HostFixed::new(&scene, path, cfg, 0.05 * scene.bounds.scale()).unwrap();
     let mut total = 0;
     for s in 0..scene.patches.len() as u32 {
-        let set = hemisphere_rays(&scene.patches[s as usize], n, dirs, Origins::Patch, 1);
+        let seed = if args.get(4).map(String::as_str) == Some("by-source") {
+            s as u64
+        } else {
+            1
+        };
+        let set = hemisphere_rays(&scene.patches[s as usize], n, dirs, Origins::Patch, seed);
         let mut esc = 0;
         let mut fesc = 0;
         let mut crowded = 0;

@@ -156,8 +156,43 @@ fn reference_form_factors(scene: &Scene) -> (Vec<f64>, usize) {
     (ff, r.escaped)
 }
 
+/// The untimed fixed-point model's hits from source 0 (969 rings rays, seed 1, origins
+/// placed as every command places them), as (patch, raw t), and how many rays it lost.
+fn fixed_hits(scene: &Scene) -> (Vec<Option<(u32, i64)>>, usize) {
+    use shellsim::fixed::records::HostFixed;
+    use shellsim_hw::Exceptions;
+    let cell = shellsim::config::cell_size(
+        shellsim::config::built_in().machine.cell_size,
+        scene.bounds.scale(),
+    );
+    let host = HostFixed::new(
+        scene,
+        Path::new("<placed>"),
+        shellsim_hw::config::paper().datapath,
+        cell,
+    )
+    .unwrap();
+    let set = hemisphere_rays(&scene.patches[0], 969, Directions::Rings, Origins::Patch, 1);
+    let hits: Vec<Option<(u32, i64)>> = set
+        .rays
+        .iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let rec = host.ray_from(i as u32, r, 0).expect("the ray fits");
+            let mut e = Exceptions::default();
+            host.scene
+                .nearest_grid(&rec, Some(0), &mut e)
+                .0
+                .map(|h| (h.patch, h.t))
+        })
+        .collect();
+    let lost = hits.iter().filter(|h| h.is_none()).count();
+    (hits, lost)
+}
+
 /// Far from the origin and at any size the validator accepts, the float reference loses no
-/// ray and finds the form factors it finds at the origin: it traces in the scene's own frame
+/// ray and finds the form factors it finds at the origin, and the fixed-point model gives
+/// every ray the same patch and the same t bits (issue 30's offset × extent table): it traces in the scene's own frame
 /// (bounds' low corner at the origin), so only the input's own rounding differs. Offsets
 /// reach 4·10⁶ extents, just inside the validator's 2^22 (in world coordinates 10⁶ extents
 /// already lost hundreds of rays). A placement 10⁸ extents out is refused as an input error.
@@ -171,6 +206,8 @@ fn far_and_small_placements_trace_as_at_the_origin() {
     for (name, scene) in &scenes {
         let (at_origin, escaped) = reference_form_factors(scene);
         assert_eq!(escaped, 0, "{name} at the origin");
+        let (fixed_at_origin, lost) = fixed_hits(scene);
+        assert_eq!(lost, 0, "{name} at the origin: fixed-point rays lost");
         for ext in [1e-6, 1e-3, 1.0, 1e3] {
             for off in [0.0, 1e2, 1e4, 1e6, 4e6] {
                 let placed = transformed(scene, ext, DVec3::splat(off * ext));
@@ -180,6 +217,16 @@ fn far_and_small_placements_trace_as_at_the_origin() {
                 for (j, (a, b)) in at_origin.iter().zip(&ff).enumerate() {
                     assert!((a - b).abs() <= 1e-9, "{what}: F to patch {j}: {a} vs {b}");
                 }
+                let (fixed, _) = fixed_hits(&placed);
+                let differ = fixed_at_origin
+                    .iter()
+                    .zip(&fixed)
+                    .filter(|(a, b)| a != b)
+                    .count();
+                assert_eq!(
+                    differ, 0,
+                    "{what}: fixed-point hits that differ from the origin's"
+                );
             }
         }
         // Too far out for f64 to hold the scene to 2^-30 of its extent: refused.

@@ -97,6 +97,16 @@ impl DatapathConfig {
                 format!("{} is absurdly large", self.cell_margin_lsb),
             ));
         }
+        if (self.cell_margin_lsb as i64) < crate::datapath::dda::OVERSHOOT_LSB {
+            return Err(err(
+                "cell_margin_lsb",
+                format!(
+                    "{} is below {}: the datapath's hit point may lie that far off a quantized patch, and the walk's overshoot past the grid's faces reaches that far",
+                    self.cell_margin_lsb,
+                    crate::datapath::dda::OVERSHOOT_LSB
+                ),
+            ));
+        }
         let f = self.frac_bits;
         let ci = self.coord_int_bits;
         // |v - o| < 2^ci; ray space |p_kx − sx·p_kz| < 2^(ci+1) (|sx| ≤ 1), |sz·p_kz| < 2^(ci+1).

@@ -6,8 +6,22 @@
 //! exact cross-multiplication N_a·D_b < N_b·D_a. A step adds the cell size to N_a: exact,
 //! so no error accumulates however long the walk. A zero direction component is the
 //! saturating infinity: its t_a never wins (a flag in hardware). Ties step the lowest axis.
+//!
+//! **Past the grid's faces.** Where the ray leaves the grid through a face, the walk goes on
+//! [`OVERSHOOT_LSB`] beyond that face's plane, stepping only along the other axes through
+//! the boundary layer of cells. Why: the datapath tests the ray against the patches' rounded
+//! ray-space images (rounding point A), which lie up to 1.5 LSB off the quantized patches,
+//! and the ray record's direction differs from the rounded shear's by up to ~1 LSB over the
+//! grid — across a scene's boundary wall, ~2.5 LSB, which a grazing ray covers far beyond
+//! the point where its exact line leaves the grid. The boundary cells list those walls
+//! (the cell table's margin, at least [`OVERSHOOT_LSB`]), so a ray that meets a boundary
+//! wall only past the grid's face still finds it. A ray that hits a wall before leaving
+//! stops as before unless another axis's boundary lies within the overshoot.
 
 use crate::datapath::record::{CellTable, RayRecord};
+
+/// How far (coordinate LSBs) the walk goes on past the grid face the ray leaves through.
+pub const OVERSHOOT_LSB: i64 = 3;
 
 /// The DDA state of one ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -23,6 +37,8 @@ pub struct FixedDda {
     /// The current cell's entry t as the fraction num/den (0/1 for the first cell).
     entry_num: i64,
     entry_den: i64,
+    /// Bit a: the ray has left the grid along axis a and walks the overshoot.
+    pinned: u8,
 }
 
 impl FixedDda {
@@ -39,6 +55,7 @@ impl FixedDda {
             cell_raw: cr,
             entry_num: 0,
             entry_den: 1,
+            pinned: 0,
         };
         for a in 0..3 {
             let o = r.o[a];
@@ -93,21 +110,32 @@ impl FixedDda {
         }
     }
 
-    /// Steps to the next cell; false when the ray leaves the grid.
+    /// Steps to the next cell; false when the ray has left the grid (by the overshoot past
+    /// the face it left through).
     #[inline]
     pub fn step(&mut self) -> bool {
-        let Some(a) = self.next_axis() else {
-            return false;
-        };
-        let c = self.c[a] as i64 + self.step[a] as i64;
-        if c < 0 || c >= self.dims[a] as i64 {
-            return false;
+        // At most one pass per axis pinned: the loop ends.
+        loop {
+            let Some(a) = self.next_axis() else {
+                return false;
+            };
+            if self.pinned & (1 << a) != 0 {
+                // The overshoot's depth past the face is reached.
+                return false;
+            }
+            let c = self.c[a] as i64 + self.step[a] as i64;
+            if c < 0 || c >= self.dims[a] as i64 {
+                // Leaving through a face: axis a's next crossing is the overshoot's depth.
+                self.pinned |= 1 << a;
+                self.n[a] += OVERSHOOT_LSB;
+                continue;
+            }
+            self.c[a] = c as u32;
+            self.entry_num = self.n[a];
+            self.entry_den = self.den[a];
+            self.n[a] += self.cell_raw;
+            return true;
         }
-        self.c[a] = c as u32;
-        self.entry_num = self.n[a];
-        self.entry_den = self.den[a];
-        self.n[a] += self.cell_raw;
-        true
     }
 
     /// True when the current cell is entered at or beyond `t` (raw, `t_frac` fractional
