@@ -88,6 +88,10 @@ pub struct CheckReport {
     /// estimate's sampling error (`ff_err_max / ff_sampling_err`).
     pub ff_err_patch: Option<u32>,
     pub ff_err_sigmas: f64,
+    /// When the patch of the largest error lies parallel to the source within 8 LSB of its
+    /// plane, in front of it (a panel set just off it, like cornell's light under the
+    /// ceiling): its gap in LSBs. The host cannot start a ray between the two below ~5 LSB.
+    pub panel_gap_lsb: Option<f64>,
 }
 
 /// A ray the fixed-point model lost where the float reference hit a patch.
@@ -311,6 +315,7 @@ pub fn check(
         leaked,
         leaks,
         ff_err_patch,
+        panel_gap_lsb: ff_err_patch.and_then(|j| panel_gap(tracer, host, source, j)),
         ff_err_sigmas: if ff_sampling_err > 0.0 {
             ff_err_max / ff_sampling_err
         } else if ff_err_max > 0.0 {
@@ -319,6 +324,25 @@ pub fn check(
             0.0
         },
     }
+}
+
+/// The gap, in coordinate LSBs, between the source's plane and patch `j` when `j` is
+/// parallel to it and lies in front of it within 8 LSB (`None` otherwise).
+fn panel_gap(tracer: &Tracer, host: &HostFixed, source: u32, j: u32) -> Option<f64> {
+    let (s, p) = (
+        &tracer.patches[source as usize],
+        &tracer.patches[j as usize],
+    );
+    if s.normal.dot(p.normal).abs() < 1.0 - 1e-9 {
+        return None;
+    }
+    let n = p.n_verts as usize;
+    let gap = p.v[..n]
+        .iter()
+        .map(|v| s.normal.dot(*v) - s.offset)
+        .fold(f64::INFINITY, f64::min)
+        / host.coord_lsb();
+    (gap > 0.0 && gap < 8.0).then_some(gap)
 }
 
 /// Why two answers for `ray` disagree — `float` (the float reference's, or an exact one)
@@ -465,6 +489,14 @@ impl CheckReport {
             let patch = self
                 .ff_err_patch
                 .map_or(String::new(), |p| format!(" (patch {p})"));
+            if let (Some(gap), Some(p)) = (self.panel_gap_lsb, self.ff_err_patch) {
+                let more = (5.0 / gap).log2().ceil().max(1.0) as u32;
+                wrong.push(format!(
+                    "patch {p} lies {gap:.2} LSB in front of the source's plane, parallel to it: \
+                     a ray cannot start between the two, so rays from the part it covers miss \
+                     its back — give the datapath at least {more} more fractional bits"
+                ));
+            }
             wrong.push(format!(
                 "the form-factor error {:.3e}{patch} is {:.1}× the float estimate's sampling error \
                  {:.3e} (at most {FF_ERR_SIGMAS_MAX}× passes): the fixed point, not the ray count, \
