@@ -3,6 +3,7 @@
 //! or reported as unexplained; t error in LSBs; form-factor error.
 
 use crate::error::{Error, Result};
+use crate::fixed::origin::Placement;
 use crate::fixed::records::HostFixed;
 use crate::output::write_json;
 use crate::reference::cast::form_factors;
@@ -80,6 +81,10 @@ pub struct CheckReport {
     pub escaped_fixed: u64,
     /// Rays the fixed-point model lost where the float reference hit a patch.
     pub leaked: u64,
+    /// Of those, rays whose origin could not be placed 2 LSB clear of every patch
+    /// (`crate::fixed::origin::Placement::Crowded`: a source a few LSBs wide, or a patch
+    /// within 2 LSB of it) — where watertightness is not promised at this width.
+    pub leaked_crowded: u64,
     /// Rays the fixed-point model lost although the float reference found a patch for them
     /// (the first 20, with where the float ray met the scene). From a closed scene every
     /// one is a failure.
@@ -131,6 +136,7 @@ struct Outcome {
     exc: Exceptions,
     class: Option<Option<Class>>,
     t_err_lsb: Option<f64>,
+    crowded: bool,
 }
 
 /// The explained class of a difference.
@@ -174,7 +180,9 @@ pub fn check(
         .map(|(i, ray)| {
             let float = tracer.trace(ray, Some(source));
             let mut exc = Exceptions::default();
-            let rec = host.ray_from(i as u32, ray, source);
+            let placed = host.ray_placed(i as u32, ray, source);
+            let crowded = placed.is_some_and(|(_, p)| p != Placement::Clear);
+            let rec = placed.map(|(r, _)| r);
             let fixed = rec.and_then(|r| host.scene.nearest_grid(&r, Some(source), &mut exc).0);
             if rec.is_none() {
                 exc.overflow += 1;
@@ -202,6 +210,7 @@ pub fn check(
                 exc,
                 class,
                 t_err_lsb,
+                crowded,
             }
         })
         .collect();
@@ -213,12 +222,15 @@ pub fn check(
     let (mut escaped_float, mut escaped_fixed) = (0u64, 0u64);
     let mut leaks = Vec::new();
     let mut leaked = 0u64;
+    let mut leaked_crowded = 0u64;
     let (mut t_max, mut t_sq, mut t_n) = (0.0f64, 0.0f64, 0usize);
     for (i, o) in outcomes.iter().enumerate() {
         exceptions.add(&o.exc);
         escaped_float += o.float.is_none() as u64;
         escaped_fixed += o.fixed.is_none() as u64;
-        leaked += (o.float.is_some() && o.fixed.is_none()) as u64;
+        let lost = o.float.is_some() && o.fixed.is_none();
+        leaked += lost as u64;
+        leaked_crowded += (lost && o.crowded) as u64;
         if let (Some(h), None, true) = (o.float, o.fixed, leaks.len() < 20) {
             let r = &set.rays[i];
             leaks.push(Leak {
@@ -313,6 +325,7 @@ pub fn check(
         escaped_float,
         escaped_fixed,
         leaked,
+        leaked_crowded,
         leaks,
         ff_err_patch,
         panel_gap_lsb: ff_err_patch.and_then(|j| panel_gap(tracer, host, source, j)),
@@ -474,15 +487,25 @@ impl CheckReport {
             wrong.push(format!(
                 "{} rays escaped the fixed-point model where the float reference hit a patch{listed}; \
                  the first, ray {} from ({:.6}, {:.6}, {:.6}) along ({:.6}, {:.6}, {:.6}), left \
-                 through patch {} at ({:.6}, {:.6}, {:.6}): the scene is not closed in fixed \
-                 point there (a crack between patches that do not share vertices, or patches \
-                 closer than the datapath's LSB)",
+                 through patch {} at ({:.6}, {:.6}, {:.6}){}",
                 self.leaked,
                 l.ray,
                 l.origin[0], l.origin[1], l.origin[2],
                 l.direction[0], l.direction[1], l.direction[2],
                 l.float_patch,
                 l.float_point[0], l.float_point[1], l.float_point[2],
+                if self.leaked_crowded > 0 {
+                    format!(
+                        "; {} of them start where no origin lies 2 LSB clear of every patch (a source \
+                         only a few LSBs wide, or a patch within 2 LSB of it): give the datapath more \
+                         fractional bits",
+                        self.leaked_crowded
+                    )
+                } else {
+                    ": the scene is not closed in fixed point there (a crack between patches that \
+                     do not share vertices)"
+                        .to_string()
+                },
             ));
         }
         if self.ff_err_sigmas > FF_ERR_SIGMAS_MAX {

@@ -70,13 +70,14 @@ fn raw(v: [i64; 3]) -> DVec3 {
 }
 
 impl Source {
-    fn new(p: &PatchRecord) -> Option<Source> {
+    /// The source `p`; `fallback` is its normal where its quantized vertices collapse.
+    fn new(p: &PatchRecord, fallback: DVec3) -> Option<Source> {
         let v = &p.v.map(raw)[..p.n_verts as usize];
         let mut n = DVec3::ZERO;
         for k in 0..v.len() {
             n += v[k].cross(v[(k + 1) % v.len()]);
         }
-        let n = n.try_normalize()?;
+        let n = n.try_normalize().or(fallback.try_normalize())?;
         let mut inward = [(DVec3::ZERO, DVec3::ZERO); 4];
         let mut edges = 0;
         for k in 0..v.len() {
@@ -258,9 +259,16 @@ fn blocker(o: DVec3, src: &Source, source: u32, scene: &FixedScene) -> Option<Op
 }
 
 /// The lattice origin (raw coordinates) of a ray leaving `source` from `o` (LSB units, on
-/// the float source), and how it was placed. `None` when the source is degenerate.
-pub fn place(o: DVec3, source: u32, scene: &FixedScene) -> Option<([i64; 3], Placement)> {
-    let src = Source::new(scene.patches.get(source as usize)?)?;
+/// the float source), and how it was placed; `fallback` is the source's normal in the
+/// scene, for a source whose quantized vertices collapse (it is then always crowded by its
+/// neighbours). `None` when not even that gives a normal.
+pub fn place(
+    o: DVec3,
+    source: u32,
+    scene: &FixedScene,
+    fallback: DVec3,
+) -> Option<([i64; 3], Placement)> {
+    let src = Source::new(scene.patches.get(source as usize)?, fallback)?;
     let lattice = |p: DVec3| [p.x.round() as i64, p.y.round() as i64, p.z.round() as i64];
     let mut last = None;
     let mut inset = INSET_LSB;

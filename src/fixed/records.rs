@@ -28,6 +28,9 @@ pub struct HostFixed {
     pub origin: DVec3,
     /// The scene's scale: hardware coordinates and t are scene lengths over it.
     pub scale: f64,
+    /// Each patch's unit normal in the scene (float): the front side of a patch whose
+    /// quantized vertices collapse (smaller than an LSB), for placing its rays' origins.
+    pub normals: Vec<DVec3>,
 }
 
 impl HostFixed {
@@ -93,6 +96,7 @@ impl HostFixed {
             config,
             origin,
             scale,
+            normals: scene.patches.iter().map(|p| p.normal()).collect(),
         })
     }
 
@@ -123,12 +127,19 @@ impl HostFixed {
         let f = self.formats();
         let p = self.scene.patches.get(source as usize)?;
         let o = (ray.o - self.origin) / self.scale * (f.coord.frac_bits as f64).exp2();
-        let (oq, placement) = place(o, source, &self.scene)?;
+        let fallback = self.normals[source as usize];
+        let (oq, placement) = place(o, source, &self.scene, fallback)?;
         if !oq.iter().all(|&c| f.coord.fits(c as i128)) {
             return None;
         }
         let mut dq = self.direction(ray)?;
-        let n = newell(&p.v[..p.n_verts as usize]);
+        let mut n = newell(&p.v[..p.n_verts as usize]);
+        if n == [0; 3] {
+            // Collapsed at this width: the scene's normal, to 2^-20.
+            n = fallback
+                .to_array()
+                .map(|x| (x * (1u64 << 20) as f64).round() as i128);
+        }
         let a = (0..3).max_by_key(|&a| n[a].unsigned_abs()).unwrap_or(2);
         let shear_one = 1i128 << f.shear.frac_bits;
         // A grazing direction whose rounding turned it along or behind the source: an LSB
