@@ -342,8 +342,9 @@ pub fn check(
 /// The gap, in coordinate LSBs, between the source's plane and patch `j` when `j` is
 /// parallel to it and lies in front of it within 8 LSB (`None` otherwise).
 fn panel_gap(tracer: &Tracer, host: &HostFixed, source: u32, j: u32) -> Option<f64> {
+    // A check of rays that leave no patch (`source` names none) has no source's plane.
     let (s, p) = (
-        &tracer.patches[source as usize],
+        tracer.patches.get(source as usize)?,
         &tracer.patches[j as usize],
     );
     if s.normal.dot(p.normal).abs() < 1.0 - 1e-9 {

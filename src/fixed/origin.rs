@@ -73,11 +73,10 @@ impl Source {
     /// The source `p`; `fallback` is its normal where its quantized vertices collapse.
     fn new(p: &PatchRecord, fallback: DVec3) -> Option<Source> {
         let v = &p.v.map(raw)[..p.n_verts as usize];
-        let mut n = DVec3::ZERO;
-        for k in 0..v.len() {
-            n += v[k].cross(v[(k + 1) % v.len()]);
-        }
-        let n = n.try_normalize().or(fallback.try_normalize())?;
+        let [x, y, z] = newell(&p.v[..p.n_verts as usize]).map(|c| c as f64);
+        let n = DVec3::new(x, y, z)
+            .try_normalize()
+            .or(fallback.try_normalize())?;
         let mut inward = [(DVec3::ZERO, DVec3::ZERO); 4];
         let mut edges = 0;
         for k in 0..v.len() {
@@ -296,4 +295,17 @@ pub fn rises(r: &shellsim_hw::RayRecord, n: [i128; 3], shear_one: i128) -> bool 
     let (kx, ky, kz) = (r.kx as usize, r.ky as usize, r.kz as usize);
     let s = n[kx] * r.sx as i128 + n[ky] * r.sy as i128 + n[kz] * shear_one;
     (if r.d[kz] < 0 { -s } else { s }) > 0
+}
+
+/// Newell's normal of a quantized polygon (exact): its direction is the front side's.
+pub fn newell(v: &[[i64; 3]]) -> [i128; 3] {
+    let mut n = [0i128; 3];
+    for (k, a) in v.iter().enumerate() {
+        let b = v[(k + 1) % v.len()];
+        let (a, b) = (a.map(|x| x as i128), b.map(|x| x as i128));
+        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
+        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
+        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
+    }
+    n
 }

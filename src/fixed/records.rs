@@ -9,7 +9,7 @@
 //! (up to the float rounding of the conversion). t is in the same units.
 
 use crate::error::{Error, Result};
-use crate::fixed::origin::{place, rises, Placement};
+use crate::fixed::origin::{newell, place, rises, Placement};
 use crate::reference::grid::polygon_touches_box;
 use crate::reference::tracer::Ray;
 use crate::scene::{Aabb, Scene};
@@ -317,17 +317,4 @@ fn cell_table(
         count,
         ids,
     })
-}
-
-/// Newell's normal of a quantized polygon (exact): its direction is the front side's.
-fn newell(v: &[[i64; 3]]) -> [i128; 3] {
-    let mut n = [0i128; 3];
-    for (k, a) in v.iter().enumerate() {
-        let b = v[(k + 1) % v.len()];
-        let (a, b) = (a.map(|x| x as i128), b.map(|x| x as i128));
-        n[0] += (a[1] - b[1]) * (a[2] + b[2]);
-        n[1] += (a[2] - b[2]) * (a[0] + b[0]);
-        n[2] += (a[0] - b[0]) * (a[1] + b[1]);
-    }
-    n
 }
