@@ -47,6 +47,13 @@ fn print_check(r: &CheckReport) {
         "  t error: max {:.2} LSB, rms {:.2} LSB; form factors: max error {:.2e} (sampling error {:.2e})",
         r.t_err_max_lsb, r.t_err_rms_lsb, r.ff_err_max, r.ff_sampling_err
     );
+    let z = &r.zones;
+    crate::output::outln!(
+        "  rays in each class's zone: {} near the origin, {} grazing, {} near an edge or vertex",
+        z.near_origin,
+        z.grazing,
+        z.near_edge
+    );
     crate::output::outln!(
         "  escaped: float {}, fixed {} ({} where the float reference hit a patch); form-factor error {:.2} sampling errors",
         r.escaped_float,

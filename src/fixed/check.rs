@@ -50,6 +50,29 @@ pub struct Classes {
     pub tie: u64,
 }
 
+impl Classes {
+    /// The count of class `c`.
+    pub fn of(&self, c: Class) -> u64 {
+        match c {
+            Class::Overflow => self.overflow,
+            Class::NearOrigin => self.near_origin,
+            Class::Grazing => self.grazing,
+            Class::NearEdge => self.near_edge,
+            Class::Tie => self.tie,
+        }
+    }
+
+    fn of_mut(&mut self, c: Class) -> &mut u64 {
+        match c {
+            Class::Overflow => &mut self.overflow,
+            Class::NearOrigin => &mut self.near_origin,
+            Class::Grazing => &mut self.grazing,
+            Class::NearEdge => &mut self.near_edge,
+            Class::Tie => &mut self.tie,
+        }
+    }
+}
+
 /// One unexplained mismatch, with what it takes to reproduce it.
 #[derive(Clone, Debug, Serialize)]
 pub struct Unexplained {
@@ -67,6 +90,10 @@ pub struct CheckReport {
     pub rays: usize,
     pub mismatches: u64,
     pub classes: Classes,
+    /// Rays in each class's zone, whether the models differ on them or not (ties: only the
+    /// mismatches): a class explains its mismatches only while they are not most of its
+    /// zone ([`CLASS_SHARE_MAX`]).
+    pub zones: Classes,
     pub unexplained_mismatches: u64,
     pub t_err_max_lsb: f64,
     pub t_err_rms_lsb: f64,
@@ -111,6 +138,14 @@ pub struct Leak {
     pub float_point: [f64; 3],
 }
 
+/// The share of a class's zone that may differ before the class stops explaining it: a
+/// rounding flips some of the rays near an edge, the origin or grazing, not most — when
+/// most differ (and they are more than [`CLASS_MASS_MIN`] of all rays, so that a handful
+/// of grazing rays does not count), a scene defect or too few bits is the cause.
+pub const CLASS_SHARE_MAX: f64 = 0.5;
+/// The least share of all rays a class must hold for [`CLASS_SHARE_MAX`] to apply.
+pub const CLASS_MASS_MIN: f64 = 0.005;
+
 /// The form-factor error at which `check` fails, in units of the float estimate's sampling
 /// error: above it, the fixed point — not the ray count — limits the result.
 pub const FF_ERR_SIGMAS_MAX: f64 = 2.0;
@@ -137,6 +172,7 @@ struct Outcome {
     class: Option<Option<Class>>,
     t_err_lsb: Option<f64>,
     crowded: bool,
+    zone: Option<Class>,
 }
 
 /// The explained class of a difference.
@@ -202,8 +238,19 @@ pub fn check(
             });
             let overflow = exc.overflow > 0 || exc.t_saturated > 0;
             let shift = rec.map_or(0.0, |r| host.ray_back(&r).o.distance(ray.o));
-            let class = (!same)
-                .then(|| classify(tracer, host, ray, float, fixed_hit, overflow, shift, tol));
+            // The zone the ray lies in, whether or not the models differ on it: what each
+            // class could explain, against what it is asked to.
+            let zone = classify(
+                tracer,
+                host,
+                ray,
+                float,
+                fixed_hit.or(float),
+                overflow,
+                shift,
+                tol,
+            );
+            let class = (!same).then_some(zone);
             Outcome {
                 float,
                 fixed,
@@ -211,10 +258,12 @@ pub fn check(
                 class,
                 t_err_lsb,
                 crowded,
+                zone,
             }
         })
         .collect();
     let mut classes = Classes::default();
+    let mut zones = Classes::default();
     let mut exceptions = Exceptions::default();
     let mut mismatches = 0;
     let mut unexplained = Vec::new();
@@ -226,6 +275,11 @@ pub fn check(
     let (mut t_max, mut t_sq, mut t_n) = (0.0f64, 0.0f64, 0usize);
     for (i, o) in outcomes.iter().enumerate() {
         exceptions.add(&o.exc);
+        // (A tie needs the second patch, which a ray both models agree on does not name.)
+        match (o.zone, o.class) {
+            (Some(Class::Tie), None) | (None, _) => {}
+            (Some(z), _) => *zones.of_mut(z) += 1,
+        }
         escaped_float += o.float.is_none() as u64;
         escaped_fixed += o.fixed.is_none() as u64;
         let lost = o.float.is_some() && o.fixed.is_none();
@@ -310,6 +364,7 @@ pub fn check(
         rays: set.len(),
         mismatches,
         classes,
+        zones,
         unexplained_mismatches: unexplained_n,
         t_err_max_lsb: t_max,
         t_err_rms_lsb: if t_n > 0 {
@@ -535,6 +590,21 @@ impl CheckReport {
                 self.classes.near_origin,
                 self.classes.near_edge,
             ));
+        }
+        for c in [Class::NearOrigin, Class::Grazing, Class::NearEdge] {
+            let (m, z) = (self.classes.of(c), self.zones.of(c));
+            if m as f64 > CLASS_SHARE_MAX * z as f64 && m as f64 > CLASS_MASS_MIN * self.rays as f64
+            {
+                wrong.push(format!(
+                    "class {}: {m} of the {z} rays in its zone differ ({:.0} %, {:.1} % of all rays) — \
+                     rounding flips some of the rays it covers, not most, so it does not account \
+                     for them; look for a scene defect (a patch within an LSB of the source, \
+                     duplicated faces) or give the datapath more fractional bits",
+                    c.name(),
+                    100.0 * m as f64 / z.max(1) as f64,
+                    100.0 * m as f64 / self.rays.max(1) as f64
+                ));
+            }
         }
         if self.unexplained_mismatches > 0 {
             wrong.push(format!(
