@@ -554,3 +554,57 @@ mod matrix_file {
         scene1_fixed => "scene1.json", "fixed";
     }
 }
+
+/// Issue 30: `radiosity --compare` judges the difference in noise units — exit 0 between
+/// the machine and the float reference on scene1 at the default width, exit 1 naming the
+/// patches at 7 fractional bits, where the fixed point shifts scene1's small patches.
+#[test]
+fn compare_fails_beyond_the_noise_naming_the_patches() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = out.to_str().unwrap();
+    let ok = shellsim(
+        &[
+            "radiosity",
+            "--scene",
+            "scenes/scene1.json",
+            "--compare",
+            "float,machine",
+            "--out",
+            o,
+        ],
+        "2",
+    );
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+    let toml = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("hw/configs/paper.toml"),
+    )
+    .unwrap()
+    .replace("frac_bits = 12 ", "frac_bits = 7 ");
+    let hw = dir.path().join("f7.toml");
+    std::fs::write(&hw, toml).unwrap();
+    let bad = shellsim(
+        &[
+            "radiosity",
+            "--scene",
+            "scenes/scene1.json",
+            "--compare",
+            "float,fixed",
+            "--hw",
+            hw.to_str().unwrap(),
+            "--out",
+            o,
+        ],
+        "2",
+    );
+    let e = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("more than 3 noise units on") && e.contains("patches ("),
+        "{e}"
+    );
+}
