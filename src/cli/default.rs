@@ -72,6 +72,16 @@ pub fn run() -> Result<()> {
         Some(fixed.unexplained_mismatches == 0),
     );
     row(
+        "fixed point: rays lost (leaks)",
+        fixed.leaked.to_string(),
+        Some(fixed.leaked == 0),
+    );
+    row(
+        "fixed point vs float: F error / sampling error",
+        format!("{:.2}", fixed.ff_err_sigmas),
+        Some(fixed.verdict(None).is_ok()),
+    );
+    row(
         "float: rays escaped (enclosure)",
         report.escaped.to_string(),
         Some(report.escaped == 0),

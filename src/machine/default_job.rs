@@ -68,7 +68,7 @@ impl DefaultJob {
     /// True when every check passed.
     pub fn ok(&self) -> bool {
         self.machine.mismatches_vs_fixed == 0
-            && self.fixed.unexplained_mismatches == 0
+            && self.fixed.verdict(None).is_ok()
             && self.reference.escaped == 0
             && self.grid_mismatches == 0
             && self.analytic.ok()
