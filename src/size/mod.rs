@@ -83,7 +83,15 @@ pub struct SizeSpec {
 pub struct BitsTrial {
     pub frac_bits: u32,
     pub ff_err_max: f64,
+    /// Rays the fixed-point model lost where the float reference hit a patch (`check`'s
+    /// leaks): a width that loses any does not meet the target, whatever its error.
+    #[serde(skip_serializing_if = "is_zero")]
+    pub leaks: u64,
     pub meets: bool,
+}
+
+fn is_zero(x: &u64) -> bool {
+    *x == 0
 }
 
 /// An integer-bit decision: analytic bounds beside the measured range.
@@ -191,26 +199,43 @@ struct Bench<'a> {
     spec: &'a SizeSpec,
     cell: f64,
     rays: RaySet,
-    /// The high-ray reference, and the float model on the machine's rays.
+    /// The high-ray reference, and the float model on the machine's rays (and its hits).
     reference: Vec<f64>,
     float: Vec<f64>,
+    float_hits: Vec<Option<u32>>,
 }
 
 impl Bench<'_> {
-    /// The fixed-point model's form-factor error on the machine's rays for `dp`.
-    fn fixed_error(&self, dp: DatapathConfig) -> Result<(f64, HostFixed)> {
+    /// The fixed-point model's form-factor error on the machine's rays for `dp`, and the
+    /// rays it lost where the float reference hit a patch.
+    fn fixed_error(&self, dp: DatapathConfig) -> Result<(f64, u64, HostFixed)> {
         let host = HostFixed::new(self.scene, self.file, dp, self.cell)?;
         let src = self.spec.source;
-        let hits = self.rays.rays.iter().enumerate().map(|(i, r)| {
-            let rec = host.ray_from(i as u32, r, src)?;
-            let mut e = Exceptions::default();
-            host.scene
-                .nearest_grid(&rec, Some(src), &mut e)
-                .0
-                .map(|h| h.patch)
-        });
-        let f = dense(self.scene.patches.len(), hits, &self.rays.weights);
-        Ok((max_abs_diff(&f, self.target()), host))
+        let hits: Vec<Option<u32>> = self
+            .rays
+            .rays
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let rec = host.ray_from(i as u32, r, src)?;
+                let mut e = Exceptions::default();
+                host.scene
+                    .nearest_grid(&rec, Some(src), &mut e)
+                    .0
+                    .map(|h| h.patch)
+            })
+            .collect();
+        let leaks = hits
+            .iter()
+            .zip(&self.float_hits)
+            .filter(|(x, f)| x.is_none() && f.is_some())
+            .count() as u64;
+        let f = dense(
+            self.scene.patches.len(),
+            hits.into_iter(),
+            &self.rays.weights,
+        );
+        Ok((max_abs_diff(&f, self.target()), leaks, host))
     }
 
     /// What the target is measured against.
@@ -335,17 +360,16 @@ pub fn size(
         REFERENCE_SEED,
     );
     let n = scene.patches.len();
-    let trace = |set: &RaySet| -> Vec<f64> {
+    let hits_of = |set: &RaySet| -> Vec<Option<u32>> {
         use rayon::prelude::*;
-        let hits: Vec<Option<u32>> = set
-            .rays
+        set.rays
             .par_iter()
             .map(|r| tracer.trace(r, Some(spec.source)).map(|h| h.patch))
-            .collect();
-        dense(n, hits.into_iter(), &set.weights)
+            .collect()
     };
-    let reference = trace(&ref_set);
-    let float = trace(&rays);
+    let reference = dense(n, hits_of(&ref_set).into_iter(), &ref_set.weights);
+    let float_hits = hits_of(&rays);
+    let float = dense(n, float_hits.iter().copied(), &rays.weights);
     let float_err = max_abs_diff(&float, &reference);
     if spec.against == Against::Reference && float_err > e {
         return Err(Error::param(
@@ -363,6 +387,7 @@ pub fn size(
         rays,
         reference,
         float,
+        float_hits,
     };
 
     // 1. Fractional bits: bisection over real runs of the fixed-point model.
@@ -374,13 +399,15 @@ pub fn size(
     };
     let mut bits = Vec::new();
     let mut try_bits = |b: u32| -> Result<bool> {
-        let (err, _) = bench.fixed_error(with_bits(b))?;
+        let (err, leaks, _) = bench.fixed_error(with_bits(b))?;
+        let meets = err <= e && leaks == 0;
         bits.push(BitsTrial {
             frac_bits: b,
             ff_err_max: err,
-            meets: err <= e,
+            leaks,
+            meets,
         });
-        Ok(err <= e)
+        Ok(meets)
     };
     let (mut lo, mut hi) = (*FRAC_BITS.start(), *FRAC_BITS.end());
     if !try_bits(hi)? {
@@ -409,7 +436,7 @@ pub fn size(
 
     // 2. Integer bits: the scene normalized to its scale lies in [0, 1]³ (coordinates
     //    relative to the grid origin); t reaches at most the grid's diagonal.
-    let (_, host) = bench.fixed_error(with_bits(frac_bits))?;
+    let (_, _, host) = bench.fixed_error(with_bits(frac_bits))?;
     let f = *host.formats();
     let lsb = f.coord.lsb();
     let (mut cmin, mut cmax) = (f64::INFINITY, f64::NEG_INFINITY);
