@@ -89,11 +89,30 @@ pub fn run(a: &RunArgs) -> Result<()> {
         print_waveform(w);
     }
     let s = &out.stats;
+    let escaped = out.escaped.len();
     crate::output::outln!(
-        "{}: {} rays, {} cycles, pipeline efficiency {:.3}, {} patch loads, {} jobs, {} mismatches vs fixed, {:.2} M cycles/s",
-        s.scene, s.rays, s.cycles, s.pipeline_efficiency, s.patch_loads, s.jobs, s.mismatches_vs_fixed, s.sim_rate_hz / 1e6
+        "{}: {} rays, {} cycles, pipeline efficiency {:.3}, {} patch loads, {} jobs, {} mismatches vs fixed, {} escaped, {:.2} M cycles/s",
+        s.scene, s.rays, s.cycles, s.pipeline_efficiency, s.patch_loads, s.jobs, s.mismatches_vs_fixed, escaped, s.sim_rate_hz / 1e6
     );
-    s.verdict()
+    s.verdict()?;
+    leak_verdict(&scene, &out.escaped, s.source)
+}
+
+/// `Err(Error::Check)` when the machine lost rays from a scene the float reference's
+/// closure probe proves closed (`reference::orient::closure`): a leak, naming the first ray.
+fn leak_verdict(scene: &crate::scene::Scene, escaped: &[u32], source: u32) -> Result<()> {
+    let Some(&first) = escaped.first() else {
+        return Ok(());
+    };
+    let tracer = crate::reference::tracer::Tracer::new(scene, scene.bounds.scale() / 20.0)?;
+    if !crate::reference::orient::closure(scene, &tracer).closed() {
+        return Ok(());
+    }
+    Err(Error::Check(format!(
+        "the machine lost {} rays from source {source} of a closed scene (the first: ray {first}); \
+         `shellsim check --source {source}` lists where they left",
+        escaped.len()
+    )))
 }
 
 impl RunArgs {

@@ -324,6 +324,8 @@ pub struct Waveform {
 pub struct Executed {
     pub stats: RunStats,
     pub waveform: Option<Waveform>,
+    /// Rays that hit nothing (ray ids), for the leak verdict.
+    pub escaped: Vec<u32>,
 }
 
 /// Runs the machine ([`run`]), writing the VCD (+ .gtkw) and the JSON (configuration +
@@ -391,9 +393,13 @@ pub fn execute(
             },
         )?;
     }
+    let escaped = (0..out.hits.len() as u32)
+        .filter(|&i| out.hits[i as usize].is_none())
+        .collect();
     Ok(Executed {
         stats: out.stats,
         waveform,
+        escaped,
     })
 }
 
