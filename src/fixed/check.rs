@@ -530,10 +530,13 @@ pub fn check_scene(
 impl CheckReport {
     /// `Err(Error::Check)` with what is wrong and what to try when (1) the fixed-point
     /// model lost a ray the float reference found a patch for while the float reference
-    /// lost none (a leak from a scene closed as seen from the source), (2) the form-factor error exceeds the float estimate's own
-    /// sampling error ([`FF_ERR_SIGMAS_MAX`]) — then the classes, however they file the
-    /// differences, do not account for their size — or (3) some mismatch has no explanation.
-    /// The message points to the JSON report `written` when one was written.
+    /// lost none (a leak from a scene closed as seen from the source); (2) the form-factor
+    /// error exceeds [`FF_ERR_SIGMAS_MAX`] times the float estimate's own sampling error —
+    /// then the classes, however they file the differences, do not account for their size
+    /// (a panel set within 8 LSB in front of the source is named, with the bits it needs);
+    /// (3) a class holds most of the rays in its zone ([`CLASS_SHARE_MAX`]); or (4) some
+    /// mismatch has no explanation. The message points to the JSON report `written` when
+    /// one was written.
     pub fn verdict(&self, written: Option<&Path>) -> Result<()> {
         let listed = written.map_or(String::new(), |p| format!(" (listed in {})", p.display()));
         let mut wrong = Vec::new();
