@@ -24,7 +24,8 @@ fn main() {
     }
     let host = HostFixed::new(&scene, path, cfg, 0.05 * scene.bounds.scale()).unwrap();
     let mut total = 0;
-    for s in 0..scene.patches.len() as u32 {
+    let only: Option<u32> = std::env::var("SOURCE").ok().and_then(|s| s.parse().ok());
+    for s in (0..scene.patches.len() as u32).filter(|s| only.is_none_or(|o| o == *s)) {
         let seed = if args.get(4).map(String::as_str) == Some("by-source") {
             s as u64
         } else {

@@ -70,7 +70,8 @@ pub struct Edges {
     /// The quad's diagonal v0 → v2 (0 for triangles).
     pub diag: i128,
     pub inside: bool,
-    /// +1 when the polygon is seen counter-clockwise in ray space, −1 clockwise.
+    /// +1 when the triangle holding the ray (of a quad: of its two on the diagonal v0–v2)
+    /// is seen counter-clockwise in ray space, −1 clockwise.
     pub orient: i8,
 }
 
@@ -141,8 +142,13 @@ fn top_left(dx: i64, dy: i64) -> bool {
     dy > 0 || (dy == 0 && dx < 0)
 }
 
-/// Stage 3, edge functions (exact) and the inside test: all of one sign, exact zeros kept
-/// only on top-left edges, an edge that projects to a point bounding nothing.
+/// Stage 3, edge functions (exact) and the inside test, per triangle: a quad is the two
+/// triangles (v0, v2, v3) and (v0, v1, v2) on its diagonal v0–v2, each inside when its three
+/// edge functions are of one sign, exact zeros kept only on top-left edges (an edge that
+/// projects to a point bounds nothing). Why not the quad's outline: seen edge-on, a quad's
+/// rounded ray-space image (rounding point A) may be non-convex, and the outline test then
+/// leaves a crack inside it; triangles are never non-convex, and the diagonal is shared
+/// exactly. For a convex image the two tests agree ray for ray.
 #[inline(always)]
 pub fn edges(s: &RaySpace) -> Edges {
     let n = s.n as usize;
@@ -150,31 +156,39 @@ pub fn edges(s: &RaySpace) -> Edges {
         s.x[a] as i128 * s.y[b] as i128 - s.y[a] as i128 * s.x[b] as i128
     };
     let mut out = Edges::default();
-    let (mut pos, mut neg) = (false, false);
     for k in 0..n {
-        let e = cross(k, (k + 1) % n);
-        out.e[k] = e;
-        pos |= e > 0;
-        neg |= e < 0;
+        out.e[k] = cross(k, (k + 1) % n);
     }
     if n == 4 {
         out.diag = cross(0, 2);
     }
-    if pos == neg {
-        return out;
-    }
-    out.orient = if pos { 1 } else { -1 };
-    let o = out.orient as i64;
-    for k in 0..n {
-        if out.e[k] == 0 {
-            let b = (k + 1) % n;
-            let (dx, dy) = (s.x[b] - s.x[k], s.y[b] - s.y[k]);
-            if (dx, dy) != (0, 0) && !top_left(o * dx, o * dy) {
-                return out;
+    // One triangle: its edge functions with their edges (a → b); its orientation if inside.
+    let tri = |es: [(i128, usize, usize); 3]| -> Option<i8> {
+        let pos = es.iter().any(|e| e.0 > 0);
+        let neg = es.iter().any(|e| e.0 < 0);
+        if pos == neg {
+            return None;
+        }
+        let o: i64 = if pos { 1 } else { -1 };
+        for &(e, a, b) in &es {
+            let (dx, dy) = (s.x[b] - s.x[a], s.y[b] - s.y[a]);
+            if e == 0 && (dx, dy) != (0, 0) && !top_left(o * dx, o * dy) {
+                return None;
             }
         }
+        Some(o as i8)
+    };
+    let e = out.e;
+    let hit = if n == 3 {
+        tri([(e[0], 0, 1), (e[1], 1, 2), (e[2], 2, 0)])
+    } else {
+        tri([(out.diag, 0, 2), (e[2], 2, 3), (e[3], 3, 0)])
+            .or_else(|| tri([(e[0], 0, 1), (e[1], 1, 2), (-out.diag, 2, 0)]))
+    };
+    if let Some(o) = hit {
+        out.inside = true;
+        out.orient = o;
     }
-    out.inside = true;
     out
 }
 
@@ -336,6 +350,25 @@ mod tests {
                 .count();
             assert_eq!(n, 1, "direction {d:?}");
         }
+    }
+
+    #[test]
+    fn a_non_convex_quad_image_has_no_crack() {
+        // A quad whose ray-space image is non-convex (an arrowhead with its reflex vertex
+        // at v2), as rounding point A can make of a planar quad seen edge-on; the ray (the
+        // origin) lies inside it, in triangle (v0, v2, v3), but beyond the line of edge
+        // v1 → v2: the outline's edge functions disagree in sign there.
+        let s = RaySpace {
+            n: 4,
+            x: [5, 11, 5, -1],
+            y: [-11, 1, -3, 1],
+            z: [10, 10, 10, 10],
+        };
+        let e = edges(&s);
+        assert!(e.e.iter().any(|&x| x > 0) && e.e.iter().any(|&x| x < 0));
+        assert!(e.inside, "the triangles cover the ray: {e:?}");
+        let q = interpolate(&s, &e);
+        assert!(q.valid && q.num == 10 * q.den, "{q:?}");
     }
 
     #[test]
