@@ -6,9 +6,11 @@
 //! rounded to the coordinate LSB (±½ each). Pulled back to the scene, that moves every vertex
 //! by at most √(1² + 1² + ½²) = 1.5 LSB (x and y take up to ½ LSB of their own and ½ LSB of
 //! z's error through the shear, |d_kx|, |d_ky| ≤ |d_kz|). The datapath then tests the ray
-//! *exactly* against the polygons of the moved vertices: edge functions are exact, shared
-//! vertices move identically, so a closed mesh stays a closed mesh, and the line x = y = 0
-//! crosses it with a consistent top-left rule. A point farther than 1.5 LSB from every
+//! *exactly* against the triangles of the moved vertices (a quad as its two triangles on
+//! the diagonal v0–v2, stage 3): edge functions are exact, shared vertices move
+//! identically, so a closed mesh stays a closed mesh, and the line x = y = 0 crosses it with
+//! a consistent top-left rule. (The CTU's walk goes on past the grid face a ray leaves
+//! through, hw/src/datapath/dda.rs, so the cells it visits hold every patch it can meet.) A point farther than 1.5 LSB from every
 //! patch keeps its side of every moved patch; if it lies inside the closed scene, the ray's
 //! half-line `t ≥ 0` must cross the moved surface — it hits some patch. The source itself
 //! is excluded, so the origin also keeps more than 1.5 LSB in front of it and the ray's
