@@ -24,6 +24,7 @@ pub mod partition;
 pub mod progress;
 pub mod radiosity;
 pub mod reference;
+pub mod rtl;
 pub mod scene;
 pub mod size;
 pub mod stability;

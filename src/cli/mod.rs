@@ -12,6 +12,7 @@ pub mod paper;
 pub mod partition;
 pub mod radiosity;
 pub mod reference;
+pub mod rtl;
 pub mod run;
 pub mod scene;
 pub mod size;
@@ -72,6 +73,12 @@ pub enum Command {
     /// job-array scripts.
     #[command(subcommand)]
     Explore(explore::ExploreCmd),
+    /// Write the SystemVerilog of the ICU pipeline and the DDA step for a configuration
+    /// (the parameter package, the RTL and the co-simulation tops).
+    Rtl(rtl::RtlArgs),
+    /// Co-simulate the RTL (Verilator) against the model: every stage register of every
+    /// vector, and the handshake cycle by cycle under back-pressure.
+    Cosim(rtl::CosimArgs),
 }
 
 /// Runs the job the command line asks for; errors name the flags the user typed.
@@ -94,6 +101,8 @@ fn dispatch(cli: Cli) -> Result<()> {
         Some(Command::Radiosity(a)) => radiosity::run(&a),
         Some(Command::Stability(a)) => stability::run(&a),
         Some(Command::Explore(c)) => explore::run(&c),
+        Some(Command::Rtl(a)) => rtl::run_rtl(&a),
+        Some(Command::Cosim(a)) => rtl::run_cosim(&a),
         None => default::run(),
     }
 }

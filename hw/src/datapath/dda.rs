@@ -41,6 +41,53 @@ pub struct FixedDda {
     pinned: u8,
 }
 
+/// A DDA's registers, every field visible: what the RTL step (hw/rtl/shellsim_dda.sv) reads
+/// and writes, for the co-simulation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DdaRegs {
+    pub c: [u32; 3],
+    pub dims: [u32; 3],
+    pub step: [i8; 3],
+    pub n: [i64; 3],
+    pub den: [i64; 3],
+    pub cell_raw: i64,
+    pub entry_num: i64,
+    pub entry_den: i64,
+    pub pinned: u8,
+}
+
+impl From<&FixedDda> for DdaRegs {
+    fn from(d: &FixedDda) -> Self {
+        DdaRegs {
+            c: d.c,
+            dims: d.dims,
+            step: d.step,
+            n: d.n,
+            den: d.den,
+            cell_raw: d.cell_raw,
+            entry_num: d.entry_num,
+            entry_den: d.entry_den,
+            pinned: d.pinned,
+        }
+    }
+}
+
+impl From<DdaRegs> for FixedDda {
+    fn from(r: DdaRegs) -> Self {
+        FixedDda {
+            c: r.c,
+            dims: r.dims,
+            step: r.step,
+            n: r.n,
+            den: r.den,
+            cell_raw: r.cell_raw,
+            entry_num: r.entry_num,
+            entry_den: r.entry_den,
+            pinned: r.pinned,
+        }
+    }
+}
+
 impl FixedDda {
     /// Starts at the cell holding the ray's origin; `None` when the origin is outside the
     /// grid (the host places every origin inside).

@@ -1,0 +1,143 @@
+//! `shellsim rtl` and `shellsim cosim`: the SystemVerilog for a configuration, and its
+//! co-simulation against the model.
+
+use super::args::DatapathArgs;
+use crate::error::{Error, Result};
+use crate::output::outln;
+use crate::rtl::cosim::{self, Pressure};
+use crate::rtl::layout::Params;
+use std::path::PathBuf;
+
+/// Arguments of `shellsim rtl`.
+#[derive(clap::Args, Debug)]
+pub struct RtlArgs {
+    #[command(flatten)]
+    pub datapath: DatapathArgs,
+    /// Directory for the package `shellsim_cfg.sv`, the RTL and the co-simulation tops.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// Runs `shellsim rtl`.
+pub fn run_rtl(a: &RtlArgs) -> Result<()> {
+    let cfg = a.datapath.resolve_config()?;
+    let p = Params::new(&cfg)?;
+    let what = a
+        .datapath
+        .machine
+        .hw
+        .as_ref()
+        .map_or("the built-in paper.toml".to_string(), |h| h.display().to_string());
+    let files = crate::rtl::write_rtl(&a.out, &p, &what)?;
+    for f in files {
+        outln!("wrote {}", f.display());
+    }
+    outln!(
+        "ICU pipeline: {} stages (translate, shear, edges, interpolate, {} divider stages of {} bits, result); F = {}, t {}",
+        4 + p.div.stages + 1,
+        p.div.stages,
+        p.div.bits_per_stage,
+        p.f.coord.frac_bits,
+        p.f.t
+    );
+    Ok(())
+}
+
+/// Arguments of `shellsim cosim`.
+#[derive(clap::Args, Debug)]
+pub struct CosimArgs {
+    #[command(flatten)]
+    pub datapath: DatapathArgs,
+    /// ICU vectors in all (the DDA gets a quarter as many states).
+    #[arg(long, default_value_t = 1_000_000)]
+    pub vectors: u64,
+    /// A scene whose walks give vectors (default: the built-in scene2 and cornell).
+    #[arg(long)]
+    pub scene: Vec<PathBuf>,
+    /// Seed of the directed and random vectors and of the back-pressure pattern.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// The cycle-by-cycle run's chance that a job is offered in a cycle, and that the
+    /// result side is ready.
+    #[arg(long, default_value_t = 0.7)]
+    pub offer: f64,
+    #[arg(long, default_value_t = 0.6)]
+    pub take: f64,
+    /// Write the RTL ICU's waveform of the first vectors (FST, the model's stage names).
+    #[arg(long)]
+    pub fst: Option<PathBuf>,
+    /// Write the report (vectors per source, cycles, stalls per run) as JSON.
+    #[arg(long)]
+    pub json: Option<PathBuf>,
+}
+
+/// Runs `shellsim cosim`.
+pub fn run_cosim(a: &CosimArgs) -> Result<()> {
+    for (flag, v) in [("--offer", a.offer), ("--take", a.take)] {
+        if !(v > 0.0 && v <= 1.0) {
+            return Err(Error::Usage(format!("{flag} {v} is not in (0, 1]")));
+        }
+    }
+    if a.vectors == 0 {
+        return Err(Error::Usage("--vectors 0: nothing to compare".into()));
+    }
+    let cfg = a.datapath.resolve_config()?;
+    let mut scenes = vec![];
+    if a.scene.is_empty() {
+        use crate::scene::gen::{generate, Kind};
+        scenes.push(("scene2".to_string(), generate(Kind::Scene2, 1)));
+        scenes.push(("cornell".to_string(), generate(Kind::Cornell, 1)));
+    }
+    for s in &a.scene {
+        scenes.push((s.display().to_string(), crate::scene::Scene::load(s)?));
+    }
+    let o = cosim::Options {
+        cfg,
+        vectors: a.vectors,
+        scenes,
+        seed: a.seed,
+        pressure: Pressure {
+            offer: a.offer,
+            take: a.take,
+            seed: a.seed,
+        },
+        fst: a.fst.clone(),
+    };
+    let (report, timings) = cosim::run(&o, &mut |m| eprintln!("{m}"))?;
+    let s = &report.sources;
+    outln!(
+        "co-simulation at F = {}: bit-exact in every stage register and every handshake",
+        report.frac_bits
+    );
+    outln!(
+        "  ICU vectors: {} from scenes, {} from stability cases, {} directed, {} random",
+        s.scenes,
+        s.stability,
+        s.directed,
+        s.random
+    );
+    for r in &report.runs {
+        outln!(
+            "  {} at offer {} / take {}: {} vectors, {} cycles, {} stalled, {} hits",
+            r.unit,
+            r.pressure.offer,
+            r.pressure.take,
+            r.vectors,
+            r.cycles,
+            r.stalled_cycles,
+            r.hits
+        );
+    }
+    for (what, build, t) in &timings {
+        if *build > 0.0 {
+            outln!("  {what}: {build:.1} s");
+        } else if t.seconds > 0.0 {
+            outln!("  {what}: {:.2} M vectors/s", t.vectors_per_second / 1e6);
+        }
+    }
+    if let Some(j) = &a.json {
+        let text = serde_json::to_string_pretty(&report).expect("serializable");
+        crate::output::write_atomic(j, text.as_bytes())?;
+    }
+    Ok(())
+}
