@@ -27,7 +27,9 @@ pub fn run_rtl(a: &RtlArgs) -> Result<()> {
         .machine
         .hw
         .as_ref()
-        .map_or("the built-in paper.toml".to_string(), |h| h.display().to_string());
+        .map_or("the built-in paper.toml".to_string(), |h| {
+            h.display().to_string()
+        });
     let files = crate::rtl::write_rtl(&a.out, &p, &what)?;
     for f in files {
         outln!("wrote {}", f.display());

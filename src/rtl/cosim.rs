@@ -52,19 +52,20 @@ pub struct Built {
 
 /// The Verilator build of `unit` for `p` (with FST tracing when `trace`), from `sources`
 /// (name, text) — the committed RTL unless a test passes a mutated copy.
-pub fn build(
-    p: &Params,
-    unit: Unit,
-    trace: bool,
-    sources: &[(&str, &str)],
-) -> Result<Built> {
+pub fn build(p: &Params, unit: Unit, trace: bool, sources: &[(&str, &str)]) -> Result<Built> {
     if !super::have("verilator") {
         return Err(super::missing_tool("verilator", "verilator"));
     }
     let pkg = super::package_sv(p, "the configuration");
     let top = super::top_sv(p, unit);
     let shape = super::shape_h(p, unit);
-    let mut parts: Vec<&str> = vec![&pkg, &top, &shape, super::HARNESS, if trace { "fst" } else { "" }];
+    let mut parts: Vec<&str> = vec![
+        &pkg,
+        &top,
+        &shape,
+        super::HARNESS,
+        if trace { "fst" } else { "" },
+    ];
     for (n, t) in sources {
         parts.push(n);
         parts.push(t);
@@ -82,11 +83,7 @@ pub fn build(
     let start = Instant::now();
     // Built beside its final place and renamed in whole: a concurrent or interrupted build
     // never leaves a half-built model where a finished one is looked for.
-    let tmp = super::cache_dir().join(format!(
-        "{}-{key}.tmp{}",
-        unit.name(),
-        std::process::id()
-    ));
+    let tmp = super::cache_dir().join(format!("{}-{key}.tmp{}", unit.name(), std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     let src = tmp.join("src");
     std::fs::create_dir_all(&src).map_err(|e| Error::io(&src, e))?;
@@ -105,10 +102,28 @@ pub fn build(
     let module_file = format!("{}.sv", unit.module());
     let mut cmd = Command::new("verilator");
     cmd.current_dir(&tmp)
-        .args(["--cc", "--exe", "--build", "-j", "2", "-O3", "--x-assign", "fast"])
-        .args(["--x-initial", "fast", "-Wno-fatal", "-Wno-lint", "-Wno-style"])
+        .args([
+            "--cc",
+            "--exe",
+            "--build",
+            "-j",
+            "2",
+            "-O3",
+            "--x-assign",
+            "fast",
+        ])
+        .args([
+            "--x-initial",
+            "fast",
+            "-Wno-fatal",
+            "-Wno-lint",
+            "-Wno-style",
+        ])
         .args(["--top-module", "cosim_top", "-Mdir", "obj", "-o", "cosim"])
-        .args(["-CFLAGS", &format!("-O2 -DCOSIM_TRACE={} -I../src", trace as u8)]);
+        .args([
+            "-CFLAGS",
+            &format!("-O2 -DCOSIM_TRACE={} -I../src", trace as u8),
+        ]);
     if trace {
         cmd.arg("--trace-fst");
     }
@@ -118,20 +133,33 @@ pub fn build(
         "src/cosim_top.sv",
         "src/harness.cpp",
     ]);
-    let out = cmd.output().map_err(|e| Error::io(Path::new("verilator"), e))?;
+    let out = cmd
+        .output()
+        .map_err(|e| Error::io(Path::new("verilator"), e))?;
     if !out.status.success() {
         let log = String::from_utf8_lossy(&out.stderr);
-        let first: Vec<&str> = log.lines().filter(|l| l.contains("Error")).take(8).collect();
+        let first: Vec<&str> = log
+            .lines()
+            .filter(|l| l.contains("Error"))
+            .take(8)
+            .collect();
         return Err(Error::Check(format!(
             "verilator could not build the {} for this configuration (in {}):\n{}",
             unit.name(),
             tmp.display(),
-            if first.is_empty() { log.lines().take(12).collect::<Vec<_>>().join("\n") } else { first.join("\n") }
+            if first.is_empty() {
+                log.lines().take(12).collect::<Vec<_>>().join("\n")
+            } else {
+                first.join("\n")
+            }
         )));
     }
     let _ = std::fs::remove_dir_all(&dir);
     if std::fs::rename(&tmp, &dir).is_err() && !binary.is_file() {
-        return Err(Error::Check(format!("could not move the build to {}", dir.display())));
+        return Err(Error::Check(format!(
+            "could not move the build to {}",
+            dir.display()
+        )));
     }
     let _ = std::fs::remove_dir_all(&tmp);
     Ok(Built {
@@ -256,7 +284,9 @@ fn run_harness(
     drop(buf);
     let out = child.wait_with_output().map_err(|e| Error::io(bin, e))?;
     let text = String::from_utf8_lossy(&out.stdout).to_string();
-    let line = text.lines().find(|l| l.starts_with("MISMATCH") || l.starts_with("OK"));
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("MISMATCH") || l.starts_with("OK"));
     match (out.status.code(), line) {
         (Some(0), Some(l)) if fed.is_ok() => Ok(Ok(l.to_string())),
         (Some(1), Some(l)) => Ok(Err(l.to_string())),
@@ -264,8 +294,14 @@ fn run_harness(
             "the co-simulation harness {} failed ({}): {}{}",
             bin.display(),
             out.status,
-            String::from_utf8_lossy(&out.stderr).lines().take(5).collect::<Vec<_>>().join("; "),
-            fed.err().map(|e| format!(" (stream: {e})")).unwrap_or_default()
+            String::from_utf8_lossy(&out.stderr)
+                .lines()
+                .take(5)
+                .collect::<Vec<_>>()
+                .join("; "),
+            fed.err()
+                .map(|e| format!(" (stream: {e})"))
+                .unwrap_or_default()
         ))),
     }
 }
@@ -292,6 +328,9 @@ pub fn replay_icu(
     let rays: Vec<RayRecord> = jobs.iter().map(|j| j.ray).collect();
     let patches: Vec<PatchRecord> = jobs.iter().map(|j| j.patch).collect();
     let (mut cycles, mut stalled, mut hits) = (0u64, 0u64, 0u64);
+    let (ins, sts) = (p.inputs(Unit::Icu), p.stages(Unit::Icu));
+    let wi = ins.iter().map(|f| f.bits()).sum::<u32>().div_ceil(32) as usize;
+    let ws = sts.iter().map(|f| f.bits()).sum::<u32>().div_ceil(32) as usize;
     let mut model_error: Option<String> = None;
     let verdict = run_harness(bin, fst, &mut |s| {
         let mut next = 0usize;
@@ -311,11 +350,12 @@ pub fn replay_icu(
                 }
             }
             let mut new_job: Option<(u32, Packer, Packer)> = None;
-            if input.is_empty() && next < jobs.len() && (pr.offer >= 1.0 || rng.gen_bool(pr.offer)) {
+            if input.is_empty() && next < jobs.len() && (pr.offer >= 1.0 || rng.gen_bool(pr.offer))
+            {
                 let j = &jobs[next];
-                let (exp, t) = icu_expected(p, j);
+                let (exp, t) = icu_expected(p, &sts, j);
                 expected_t.push(t);
-                new_job = Some((next as u32, icu_inputs(p, j), exp));
+                new_job = Some((next as u32, icu_inputs(&ins, j), exp));
                 input.push(
                     UnitId::RayBuffer(0),
                     Job {
@@ -335,7 +375,7 @@ pub fn replay_icu(
             let in_valid = input.valid();
             let out_ready = results[0].can_push();
             let last_valid = icu.stage_job(depth - 1).is_some();
-            let in_ready = !(last_valid && !out_ready);
+            let in_ready = !last_valid || out_ready;
             let before = icu.stats.results_out;
             let mut io = IcuPorts {
                 cluster: 0,
@@ -346,7 +386,9 @@ pub fn replay_icu(
             icu.tick(&mut io, &rays, &patches, &f);
             let accepted = in_valid && input.peek().is_none();
             if accepted != (in_valid && in_ready) && model_error.is_none() {
-                model_error = Some(format!("the model's ICU accepted {accepted} at cycle {cycles}"));
+                model_error = Some(format!(
+                    "the model's ICU accepted {accepted} at cycle {cycles}"
+                ));
             }
             let fired = icu.stats.results_out > before;
             input.commit();
@@ -365,10 +407,8 @@ pub fn replay_icu(
             s.word(flags)?;
             if let Some((tag, mut inb, mut exp)) = new_job {
                 s.word(tag)?;
-                let wi = p.inputs(Unit::Icu).iter().map(|f| f.bits()).sum::<u32>().div_ceil(32);
-                let ws = p.stages(Unit::Icu).iter().map(|f| f.bits()).sum::<u32>().div_ceil(32);
-                inb.pad_to(wi as usize);
-                exp.pad_to(ws as usize);
+                inb.pad_to(wi);
+                exp.pad_to(ws);
                 s.words(&inb.words)?;
                 s.words(&exp.words)?;
             }
@@ -413,8 +453,10 @@ pub fn replay_dda(
 ) -> Result<(Replay, Timing)> {
     let start = Instant::now();
     let mut rng = Pcg64::seed_from_u64(pr.seed ^ 0xdda);
-    let wi = p.inputs(Unit::Dda).iter().map(|f| f.bits()).sum::<u32>().div_ceil(32) as usize;
-    let ws = p.stages(Unit::Dda)[0].bits().div_ceil(32) as usize;
+    let ins = p.inputs(Unit::Dda);
+    let stage = p.stages(Unit::Dda).remove(0);
+    let wi = ins.iter().map(|f| f.bits()).sum::<u32>().div_ceil(32) as usize;
+    let ws = stage.bits().div_ceil(32) as usize;
     let (mut cycles, mut stalled) = (0u64, 0u64);
     let verdict = run_harness(bin, None, &mut |s| {
         let mut next = 0usize;
@@ -425,7 +467,7 @@ pub fn replay_dda(
             let mut new_job = None;
             if !offered && next < jobs.len() && (pr.offer >= 1.0 || rng.gen_bool(pr.offer)) {
                 let j = &jobs[next];
-                let (mut i, mut e) = (dda_inputs(p, j), dda_expected(p, j));
+                let (mut i, mut e) = (dda_inputs(&ins, j), dda_expected(p, &stage, j));
                 i.pad_to(wi);
                 e.pad_to(ws);
                 new_job = Some((next as u32, i, e));
@@ -438,7 +480,7 @@ pub fn replay_dda(
             if reg.is_some() {
                 out_ready = pr.take >= 1.0 || rng.gen_bool(pr.take);
             }
-            let in_ready = !(reg.is_some() && !out_ready);
+            let in_ready = reg.is_none() || out_ready;
             let fire = reg.filter(|_| out_ready);
             stalled += !in_ready as u64;
             let flags = offered as u32
@@ -507,6 +549,10 @@ pub struct Report {
     pub runs: Vec<Replay>,
 }
 
+/// Wall-clock figures of one step of a co-simulation: its name, build seconds (0 for a
+/// replay) and replay rate.
+pub type Timings = Vec<(String, f64, Timing)>;
+
 /// Jobs in one harness run at most (memory stays bounded at any vector count).
 const CHUNK: usize = 1 << 20;
 
@@ -528,14 +574,25 @@ fn describe_icu<'a>(what: &str, base: u32, jobs: &'a [IcuJob]) -> impl Fn(u32) -
 
 /// Runs the co-simulation: builds both units, replays the ICU's vectors at full rate (in
 /// chunks), a part of them again under back-pressure, and the DDA's states.
-pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Vec<(String, f64, Timing)>)> {
+pub fn run(
+    o: &Options,
+    progress: &mut dyn FnMut(&str),
+) -> Result<(Report, Timings)> {
     use super::vectors::*;
     let p = Params::new(&o.cfg)?;
     let mut timings = vec![];
     let icu = build(&p, Unit::Icu, o.fst.is_some(), super::SOURCES)?;
-    timings.push(("build icu".to_string(), icu.build_seconds, Timing::default()));
+    timings.push((
+        "build icu".to_string(),
+        icu.build_seconds,
+        Timing::default(),
+    ));
     let dda = build(&p, Unit::Dda, false, super::SOURCES)?;
-    timings.push(("build dda".to_string(), dda.build_seconds, Timing::default()));
+    timings.push((
+        "build dda".to_string(),
+        dda.build_seconds,
+        Timing::default(),
+    ));
     let n = o.vectors as usize;
     let mut sources = Sources::default();
     let mut runs = vec![];
@@ -544,7 +601,8 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Vec<(
     let mut walks: Vec<DdaJob> = vec![];
     for (name, scene) in &o.scenes {
         let cell = scene.bounds.scale() / 20.0;
-        let host = crate::fixed::records::HostFixed::new(scene, Path::new(name), o.cfg.datapath, cell)?;
+        let host =
+            crate::fixed::records::HostFixed::new(scene, Path::new(name), o.cfg.datapath, cell)?;
         let before = real.len();
         scene_jobs(scene, name, &host, 16, 64, &mut real, &mut walks);
         real.truncate(before + (n * 3 / 10 / o.scenes.len().max(1)).max(1));
@@ -559,7 +617,11 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Vec<(
     let mut chunk_no = 0u64;
     let mut first = true;
     while done < n {
-        let mut jobs: Vec<IcuJob> = if first { std::mem::take(&mut real) } else { vec![] };
+        let mut jobs: Vec<IcuJob> = if first {
+            std::mem::take(&mut real)
+        } else {
+            vec![]
+        };
         let room = CHUNK.min(n - done).saturating_sub(jobs.len());
         let directed = room / 2;
         let seed = o.seed.wrapping_add(chunk_no);
@@ -568,8 +630,19 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Vec<(
         sources.directed += directed as u64;
         sources.random += (room - directed) as u64;
         progress(&format!("icu: vectors {}..{}", done, done + jobs.len()));
-        let label = if first { "scene, stability, directed or random vector" } else { "directed or random vector" };
-        let (r, t) = replay_icu(&p, &icu.binary, &jobs, Pressure::FULL, if first { o.fst.as_deref() } else { None }, &describe_icu(label, 0, &jobs))?;
+        let label = if first {
+            "scene, stability, directed or random vector"
+        } else {
+            "directed or random vector"
+        };
+        let (r, t) = replay_icu(
+            &p,
+            &icu.binary,
+            &jobs,
+            Pressure::FULL,
+            if first { o.fst.as_deref() } else { None },
+            &describe_icu(label, 0, &jobs),
+        )?;
         timings.push((format!("icu chunk {chunk_no}"), 0.0, t));
         done += jobs.len();
         merge(&mut runs, r);
@@ -579,7 +652,14 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Vec<(
     // The cycle-by-cycle run under back-pressure.
     let bp = directed_and_random(&p, n.min(1 << 18), o.seed ^ 0xbac, true);
     progress(&format!("icu under back-pressure: {} vectors", bp.len()));
-    let (r, t) = replay_icu(&p, &icu.binary, &bp, o.pressure, None, &describe_icu("back-pressure vector", 0, &bp))?;
+    let (r, t) = replay_icu(
+        &p,
+        &icu.binary,
+        &bp,
+        o.pressure,
+        None,
+        &describe_icu("back-pressure vector", 0, &bp),
+    )?;
     timings.push(("icu back-pressure".to_string(), 0.0, t));
     runs.push(r);
     // The DDA: the scenes' walks, then random walks.
@@ -610,7 +690,10 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Vec<(
 
 /// Adds a chunk's figures to the full-rate ICU run.
 fn merge(runs: &mut Vec<Replay>, r: Replay) {
-    match runs.iter_mut().find(|x| x.unit == r.unit && x.pressure == r.pressure) {
+    match runs
+        .iter_mut()
+        .find(|x| x.unit == r.unit && x.pressure == r.pressure)
+    {
         Some(x) => {
             x.vectors += r.vectors;
             x.cycles += r.cycles;

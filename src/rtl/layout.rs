@@ -100,13 +100,10 @@ pub struct Params {
 impl Params {
     /// The widths of `cfg`'s datapath and divider.
     pub fn new(cfg: &MachineConfig) -> crate::Result<Params> {
-        let f = cfg
-            .datapath
-            .formats()
-            .map_err(|e| crate::Error::Param {
-                key: e.key.clone(),
-                what: e.what.clone(),
-            })?;
+        let f = cfg.datapath.formats().map_err(|e| crate::Error::Param {
+            key: e.key.clone(),
+            what: e.what.clone(),
+        })?;
         let div = DividerShape::new(&f, cfg.machine.divider_bits_per_stage);
         let cw = f.coord.bits();
         let nbw = cw + 2;
@@ -145,8 +142,16 @@ impl Params {
     pub fn package(&self) -> Vec<(&'static str, i64, &'static str)> {
         let f = &self.f;
         vec![
-            ("F", f.coord.frac_bits as i64, "fractional bits of coordinates, directions, shear"),
-            ("CI", f.coord.int_bits as i64, "integer bits of coordinates (with sign)"),
+            (
+                "F",
+                f.coord.frac_bits as i64,
+                "fractional bits of coordinates, directions, shear",
+            ),
+            (
+                "CI",
+                f.coord.int_bits as i64,
+                "integer bits of coordinates (with sign)",
+            ),
             ("FT", f.t.frac_bits as i64, "fractional bits of t"),
             ("TI", f.t.int_bits as i64, "integer bits of t"),
             ("CW", self.cw as i64, "coordinate"),
@@ -157,11 +162,23 @@ impl Params {
             ("DW", self.dw as i64, "interpolation denominator"),
             ("NW", self.nw as i64, "interpolation numerator"),
             ("TTW", self.ttw as i64, "t"),
-            ("DIV_BITS", self.div.bits_per_stage as i64, "quotient bits per divider stage"),
+            (
+                "DIV_BITS",
+                self.div.bits_per_stage as i64,
+                "quotient bits per divider stage",
+            ),
             ("DIV_STAGES", self.div.stages as i64, "divider stages"),
             ("QF", self.div.qf as i64, "quotient bits"),
-            ("SHIFT_N", self.div.shift_n as i64, "numerator shift to the t format"),
-            ("SHIFT_D", self.div.shift_d as i64, "denominator shift to the t format"),
+            (
+                "SHIFT_N",
+                self.div.shift_n as i64,
+                "numerator shift to the t format",
+            ),
+            (
+                "SHIFT_D",
+                self.div.shift_d as i64,
+                "denominator shift to the t format",
+            ),
             ("XW", self.div.xw as i64, "dividend X = 2N + D'"),
             ("YW", self.div.yw as i64, "divisor Y = 2D'"),
             ("CMPW", self.div.cmpw as i64, "the divider's comparisons"),
@@ -169,7 +186,11 @@ impl Params {
             ("NBW", self.nbw as i64, "DDA N_a (signed)"),
             ("DENW", self.denw as i64, "DDA D_a = |d_a|"),
             ("PW", self.pw as i64, "DDA cross products"),
-            ("OVERSHOOT", self.overshoot, "LSBs the walk goes on past the grid face it leaves"),
+            (
+                "OVERSHOOT",
+                self.overshoot,
+                "LSBs the walk goes on past the grid face it leaves",
+            ),
         ]
     }
 
@@ -323,17 +344,24 @@ pub struct Packer {
 }
 
 impl Packer {
-    /// Appends the low `width` bits of `x` (two's complement).
+    /// Appends the low `width` bits of `x` (two's complement), a word's worth at a time.
     pub fn push(&mut self, x: i128, width: u32) {
-        for b in 0..width {
-            let bit = b < 128 && (x >> b.min(127)) & 1 == 1;
-            let at = self.bits + b;
-            if at / 32 >= self.words.len() as u32 {
+        let mut done = 0;
+        while done < width {
+            let at = self.bits + done;
+            let (word, off) = ((at / 32) as usize, at % 32);
+            if word >= self.words.len() {
                 self.words.push(0);
             }
-            if bit {
-                self.words[(at / 32) as usize] |= 1 << (at % 32);
-            }
+            let n = (32 - off).min(width - done);
+            let chunk = if done >= 128 {
+                (x >> 127) as u32
+            } else {
+                (x >> done) as u32
+            };
+            let mask = if n == 32 { u32::MAX } else { (1u32 << n) - 1 };
+            self.words[word] |= (chunk & mask) << off;
+            done += n;
         }
         self.bits += width;
     }
@@ -357,7 +385,10 @@ pub fn bits_at(words: &[u32], at: u32, width: u32) -> u128 {
     let mut x = 0u128;
     for b in 0..width.min(128) {
         let i = at + b;
-        if words.get((i / 32) as usize).is_some_and(|w| (w >> (i % 32)) & 1 == 1) {
+        if words
+            .get((i / 32) as usize)
+            .is_some_and(|w| (w >> (i % 32)) & 1 == 1)
+        {
             x |= 1 << b;
         }
     }

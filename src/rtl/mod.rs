@@ -17,8 +17,14 @@ use std::path::{Path, PathBuf};
 
 /// The committed RTL sources, embedded so that an installed binary can write and build them.
 pub const SOURCES: &[(&str, &str)] = &[
-    ("shellsim_icu.sv", include_str!("../../hw/rtl/shellsim_icu.sv")),
-    ("shellsim_dda.sv", include_str!("../../hw/rtl/shellsim_dda.sv")),
+    (
+        "shellsim_icu.sv",
+        include_str!("../../hw/rtl/shellsim_icu.sv"),
+    ),
+    (
+        "shellsim_dda.sv",
+        include_str!("../../hw/rtl/shellsim_dda.sv"),
+    ),
 ];
 
 /// The harness the co-simulation builds with the Verilated top.
@@ -32,7 +38,9 @@ pub fn package_sv(p: &Params, config: &str) -> String {
          (hw/src/config/datapath.rs).\n\npackage shellsim_cfg;\n"
     );
     for (name, v, about) in p.package() {
-        s.push_str(&format!("  localparam int {name:<10} = {v:>4};  // {about}\n"));
+        s.push_str(&format!(
+            "  localparam int {name:<10} = {v:>4};  // {about}\n"
+        ));
     }
     s.push_str("endpackage\n");
     s

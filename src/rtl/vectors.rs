@@ -9,7 +9,7 @@
 //! far patches: t at and beyond its format) and seeded random ones. DDA states: every step of
 //! those scenes' walks, and random walks in random grids, each with a t to compare.
 
-use super::layout::{Packer, Params, Unit};
+use super::layout::{Field, Packer, Params, Stage};
 use crate::fixed::records::HostFixed;
 use crate::reference::rays::{hemisphere_rays, Directions, Origins};
 use crate::scene::Scene;
@@ -36,8 +36,7 @@ pub struct DdaJob {
 }
 
 /// The input bus of an ICU job.
-pub fn icu_inputs(p: &Params, j: &IcuJob) -> Packer {
-    let ins = p.inputs(Unit::Icu);
+pub fn icu_inputs(ins: &[Field], j: &IcuJob) -> Packer {
     let r = &j.ray;
     let mut b = Packer::default();
     let v: Vec<i128> = (0..12).map(|k| j.patch.v[k / 3][k % 3] as i128).collect();
@@ -60,7 +59,7 @@ pub fn icu_inputs(p: &Params, j: &IcuJob) -> Packer {
 
 /// Every stage register of an ICU job as the model computes it, packed in stage order, and
 /// the job's result (t raw or no hit) from the model's stages.
-pub fn icu_expected(p: &Params, j: &IcuJob) -> (Packer, Option<i64>) {
+pub fn icu_expected(p: &Params, stages: &[Stage], j: &IcuJob) -> (Packer, Option<i64>) {
     let f = &p.f;
     let (r, pt) = (&j.ray, &j.patch);
     let mut exc = Exceptions::default();
@@ -113,7 +112,7 @@ pub fn icu_expected(p: &Params, j: &IcuJob) -> (Packer, Option<i64>) {
         vec![saturated as i128],
     ]);
     let mut b = Packer::default();
-    for (st, vals) in p.stages(Unit::Icu).iter().zip(&values) {
+    for (st, vals) in stages.iter().zip(&values) {
         for (fld, v) in st.fields.iter().zip(vals) {
             b.field(fld, v);
         }
@@ -122,7 +121,7 @@ pub fn icu_expected(p: &Params, j: &IcuJob) -> (Packer, Option<i64>) {
 }
 
 /// The input bus of a DDA vector.
-pub fn dda_inputs(p: &Params, j: &DdaJob) -> Packer {
+pub fn dda_inputs(ins: &[Field], j: &DdaJob) -> Packer {
     let r = &j.regs;
     let vals: [Vec<i128>; 10] = [
         r.c.map(|x| x as i128).to_vec(),
@@ -137,14 +136,14 @@ pub fn dda_inputs(p: &Params, j: &DdaJob) -> Packer {
         vec![j.t as i128],
     ];
     let mut b = Packer::default();
-    for (f, v) in p.inputs(Unit::Dda).iter().zip(vals.iter()) {
+    for (f, v) in ins.iter().zip(vals.iter()) {
         b.field(f, v);
     }
     b
 }
 
 /// The DDA's register after the step, as the model computes it.
-pub fn dda_expected(p: &Params, j: &DdaJob) -> Packer {
+pub fn dda_expected(p: &Params, stage: &Stage, j: &DdaJob) -> Packer {
     let ft = p.f.t.frac_bits;
     let before = FixedDda::from(j.regs);
     let mut d = before;
@@ -162,7 +161,7 @@ pub fn dda_expected(p: &Params, j: &DdaJob) -> Packer {
         vec![before.entry_at_or_beyond(j.t, ft) as i128],
     ];
     let mut b = Packer::default();
-    for (f, v) in p.stages(Unit::Dda)[0].fields.iter().zip(vals.iter()) {
+    for (f, v) in stage.fields.iter().zip(vals.iter()) {
         b.field(f, v);
     }
     b
@@ -175,15 +174,22 @@ fn icu_fits(p: &Params, j: &IcuJob) -> bool {
     let s = p.f.shear;
     j.ray.o.iter().all(|&x| c.fits(x as i128))
         && j.patch.v.iter().flatten().all(|&x| c.fits(x as i128))
-        && [j.ray.sx, j.ray.sy, j.ray.sz].iter().all(|&x| s.fits(x as i128))
+        && [j.ray.sx, j.ray.sy, j.ray.sz]
+            .iter()
+            .all(|&x| s.fits(x as i128))
 }
 
 fn dda_fits(p: &Params, j: &DdaJob) -> bool {
     let r = &j.regs;
     let nb = |x: i64| x >= -(1 << (p.nbw - 1)) && x < (1 << (p.nbw - 1));
     r.c.iter().chain(&r.dims).all(|&x| (x as u64) < (1 << p.cb))
-        && r.n.iter().all(|&x| nb(x) && nb(x + r.cell_raw.max(p.overshoot)))
-        && r.den.iter().chain([&r.entry_den]).all(|&x| x >= 0 && x < (1 << p.denw))
+        && r.n
+            .iter()
+            .all(|&x| nb(x) && nb(x + r.cell_raw.max(p.overshoot)))
+        && r.den
+            .iter()
+            .chain([&r.entry_den])
+            .all(|&x| x >= 0 && x < (1 << p.denw))
         && nb(r.cell_raw)
         && nb(r.entry_num)
         && p.f.t.fits(j.t as i128)
@@ -216,7 +222,13 @@ pub fn scene_jobs(
     let every = n.div_ceil(sources.max(1)).max(1);
     let _ = name;
     for src in (0..n).step_by(every) {
-        let set = hemisphere_rays(&scene.patches[src], rays, Directions::Random, Origins::Patch, src as u64);
+        let set = hemisphere_rays(
+            &scene.patches[src],
+            rays,
+            Directions::Random,
+            Origins::Patch,
+            src as u64,
+        );
         for (i, ray) in set.rays.iter().enumerate() {
             let Some((r, _)) = host.ray_placed(i as u32, ray, src as u32) else {
                 continue;
@@ -285,7 +297,11 @@ pub fn stability_jobs(p: &Params, rays: usize, seed: u64, per_case: usize, icu: 
 fn direction(rng: &mut Pcg64, p: &Params) -> [i64; 3] {
     let one = (1i64 << p.f.dir.frac_bits) as f64;
     loop {
-        let v: [f64; 3] = [rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0), rng.gen_range(-1.0..1.0)];
+        let v: [f64; 3] = [
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+            rng.gen_range(-1.0..1.0),
+        ];
         let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
         if l > 0.1 && l <= 1.0 {
             let d = v.map(|x| (x / l * one).round() as i64);
@@ -316,14 +332,22 @@ pub fn directed_and_random(p: &Params, n: usize, seed: u64, directed: bool) -> V
         let step = 1i64 << (f.dir.frac_bits.saturating_sub(3));
         let small = |rng: &mut Pcg64| -> [i64; 3] {
             loop {
-                let a = [rng.gen_range(-7..=7), rng.gen_range(-7..=7), rng.gen_range(-7..=7)];
+                let a = [
+                    rng.gen_range(-7..=7),
+                    rng.gen_range(-7..=7),
+                    rng.gen_range(-7..=7),
+                ];
                 if a != [0, 0, 0] {
                     return a;
                 }
             }
         };
         let pick = |rng: &mut Pcg64, r: i64| -> [i64; 3] {
-            [rng.gen_range(-r..=r), rng.gen_range(-r..=r), rng.gen_range(-r..=r)]
+            [
+                rng.gen_range(-r..=r),
+                rng.gen_range(-r..=r),
+                rng.gen_range(-r..=r),
+            ]
         };
         let size = (lim / 4).max(8);
         let job = match kind {
@@ -335,7 +359,11 @@ pub fn directed_and_random(p: &Params, n: usize, seed: u64, directed: bool) -> V
                 let e1 = pick(&mut rng, size);
                 let e2 = pick(&mut rng, size);
                 let m = rng.gen_range(1..=lim / 16 / 8 + 1) * 8;
-                let o = [target[0] - m * a[0] / 8, target[1] - m * a[1] / 8, target[2] - m * a[2] / 8];
+                let o = [
+                    target[0] - m * a[0] / 8,
+                    target[1] - m * a[1] / 8,
+                    target[2] - m * a[2] / 8,
+                ];
                 let d = a.map(|x| x * step);
                 let v0 = if kind == 0 {
                     target
@@ -346,7 +374,11 @@ pub fn directed_and_random(p: &Params, n: usize, seed: u64, directed: bool) -> V
                 let v1 = [v0[0] + 2 * e1[0], v0[1] + 2 * e1[1], v0[2] + 2 * e1[2]];
                 let v2 = [v0[0] + e2[0], v0[1] + e2[1], v0[2] + e2[2]];
                 let v3 = [v1[0] + e2[0], v1[1] + e2[1], v1[2] + e2[2]];
-                let v = if rng.gen_bool(0.5) { [v0, v1, v3, v2] } else { [v0, v2, v3, v1] };
+                let v = if rng.gen_bool(0.5) {
+                    [v0, v1, v3, v2]
+                } else {
+                    [v0, v2, v3, v1]
+                };
                 IcuJob {
                     ray: RayRecord::new(id, o, d, f),
                     patch: pt(v, quad),
@@ -376,17 +408,35 @@ pub fn directed_and_random(p: &Params, n: usize, seed: u64, directed: bool) -> V
                 let t = tmax * rng.gen_range(0.9..1.1);
                 let one = (1i64 << f.dir.frac_bits) as f64;
                 let at = |dt: f64, e: [i64; 3]| -> [i64; 3] {
-                    let c = |k: usize| o[k] + ((d[k] as f64 / one) * (t + dt) / f.coord.lsb()) as i64 + e[k];
+                    let c = |k: usize| {
+                        o[k] + ((d[k] as f64 / one) * (t + dt) / f.coord.lsb()) as i64 + e[k]
+                    };
                     [c(0), c(1), c(2)]
                 };
                 let e1 = pick(&mut rng, size);
                 let e2 = pick(&mut rng, size);
                 let c = at(0.0, [0; 3]);
                 let v = [
-                    [c[0] - e1[0] - e2[0], c[1] - e1[1] - e2[1], c[2] - e1[2] - e2[2]],
-                    [c[0] + e1[0] - e2[0], c[1] + e1[1] - e2[1], c[2] + e1[2] - e2[2]],
-                    [c[0] + e1[0] + e2[0], c[1] + e1[1] + e2[1], c[2] + e1[2] + e2[2]],
-                    [c[0] - e1[0] + e2[0], c[1] - e1[1] + e2[1], c[2] - e1[2] + e2[2]],
+                    [
+                        c[0] - e1[0] - e2[0],
+                        c[1] - e1[1] - e2[1],
+                        c[2] - e1[2] - e2[2],
+                    ],
+                    [
+                        c[0] + e1[0] - e2[0],
+                        c[1] + e1[1] - e2[1],
+                        c[2] + e1[2] - e2[2],
+                    ],
+                    [
+                        c[0] + e1[0] + e2[0],
+                        c[1] + e1[1] + e2[1],
+                        c[2] + e1[2] + e2[2],
+                    ],
+                    [
+                        c[0] - e1[0] + e2[0],
+                        c[1] - e1[1] + e2[1],
+                        c[2] - e1[2] + e2[2],
+                    ],
                 ];
                 IcuJob {
                     ray: RayRecord::new(id, o, d, f),
@@ -409,10 +459,26 @@ pub fn directed_and_random(p: &Params, n: usize, seed: u64, directed: bool) -> V
                 let e1 = pick(&mut rng, sz);
                 let e2 = pick(&mut rng, sz);
                 let v = [
-                    [c[0] - e1[0] - e2[0], c[1] - e1[1] - e2[1], c[2] - e1[2] - e2[2]],
-                    [c[0] + e1[0] - e2[0], c[1] + e1[1] - e2[1], c[2] + e1[2] - e2[2]],
-                    [c[0] + e1[0] + e2[0], c[1] + e1[1] + e2[1], c[2] + e1[2] + e2[2]],
-                    [c[0] - e1[0] + e2[0], c[1] - e1[1] + e2[1], c[2] - e1[2] + e2[2]],
+                    [
+                        c[0] - e1[0] - e2[0],
+                        c[1] - e1[1] - e2[1],
+                        c[2] - e1[2] - e2[2],
+                    ],
+                    [
+                        c[0] + e1[0] - e2[0],
+                        c[1] + e1[1] - e2[1],
+                        c[2] + e1[2] - e2[2],
+                    ],
+                    [
+                        c[0] + e1[0] + e2[0],
+                        c[1] + e1[1] + e2[1],
+                        c[2] + e1[2] + e2[2],
+                    ],
+                    [
+                        c[0] - e1[0] + e2[0],
+                        c[1] - e1[1] + e2[1],
+                        c[2] - e1[2] + e2[2],
+                    ],
                 ];
                 IcuJob {
                     ray: RayRecord::new(id, o, d, f),
@@ -434,7 +500,11 @@ pub fn random_dda(p: &Params, n: usize, seed: u64) -> Vec<DdaJob> {
     let mut out = Vec::with_capacity(n);
     let top = f.coord.max_raw() as i64 / 2;
     while out.len() < n {
-        let dims = [rng.gen_range(1..=24u32), rng.gen_range(1..=24u32), rng.gen_range(1..=24u32)];
+        let dims = [
+            rng.gen_range(1..=24u32),
+            rng.gen_range(1..=24u32),
+            rng.gen_range(1..=24u32),
+        ];
         let cmax = top / *dims.iter().max().unwrap() as i64;
         let cell = rng.gen_range(p.overshoot.max(4)..=cmax.max(p.overshoot.max(4)));
         let table = CellTable {
@@ -464,7 +534,8 @@ pub fn random_dda(p: &Params, n: usize, seed: u64) -> Vec<DdaJob> {
                 rng.gen_range(0..=f.t.max_raw() as i64)
             } else {
                 // Near the entry of this cell: t = entry rounded, ± 1.
-                let e = ((regs.entry_num as i128) << f.t.frac_bits) / (regs.entry_den.max(1) as i128);
+                let e =
+                    ((regs.entry_num as i128) << f.t.frac_bits) / (regs.entry_den.max(1) as i128);
                 (e as i64 + rng.gen_range(-1..=1)).clamp(0, f.t.max_raw() as i64)
             };
             let j = DdaJob { regs, t };

@@ -159,11 +159,7 @@ mod tests {
                 let (got, saturated) = result(st.last().unwrap(), &f);
                 assert_eq!(got, want, "{q:?} at {frac}/{t_frac}");
                 assert_eq!(saturated, exc.t_saturated == 1, "{q:?}");
-                assert_eq!(
-                    st[0].near_zero,
-                    exc.near_zero_denominator == 1,
-                    "{q:?}"
-                );
+                assert_eq!(st[0].near_zero, exc.near_zero_denominator == 1, "{q:?}");
                 hits += want.is_some() as u32;
                 sat += saturated as u32;
             }
