@@ -11,9 +11,16 @@
 // out_valid && !out_ready). The comparisons against t use the state *before* the step (as the
 // CTU asks them of the cell it is in); the register holds the state after it.
 
-module shellsim_dda
-  import shellsim_cfg::*;
-(
+// Widths are module parameters whose defaults come from the package (see shellsim_icu.sv).
+module shellsim_dda #(
+    parameter int FT        = shellsim_cfg::FT,
+    parameter int TTW       = shellsim_cfg::TTW,
+    parameter int CB        = shellsim_cfg::CB,
+    parameter int NBW       = shellsim_cfg::NBW,
+    parameter int DENW      = shellsim_cfg::DENW,
+    parameter int PW        = shellsim_cfg::PW,
+    parameter int OVERSHOOT = shellsim_cfg::OVERSHOOT
+) (
     input  logic                clk,
     input  logic                rst,
     input  logic                in_valid,
@@ -47,31 +54,38 @@ module shellsim_dda
   assign adv      = !(out_valid && !out_ready);
   assign in_ready = adv;
 
-  function automatic logic signed [NBW-1:0] nx(input logic [3*NBW-1:0] n, input int a);
-    return $signed(n[a*NBW +: NBW]);
+  function automatic signed [NBW-1:0] nx;
+    input [3*NBW-1:0] n;
+    input integer a;
+    nx = n[a*NBW +: NBW];
   endfunction
 
-  function automatic logic [DENW-1:0] dx(input logic [3*DENW-1:0] d, input int a);
-    return d[a*DENW +: DENW];
+  function automatic [DENW-1:0] dx;
+    input [3*DENW-1:0] d;
+    input integer a;
+    dx = d[a*DENW +: DENW];
   endfunction
 
   // The axis with the least N_a/D_a (3: none, every D_a zero). Ties keep the lower axis.
-  function automatic logic [1:0] next_axis(input logic [3*NBW-1:0] n,
-                                           input logic [3*DENW-1:0] d);
+  function automatic [1:0] next_axis;
+    input [3*NBW-1:0] n;
+    input [3*DENW-1:0] d;
     logic [1:0] best;
     logic signed [PW-1:0] lhs, rhs;
-    best = 2'd3;
-    for (int a = 0; a < 3; a++) begin
-      if (dx(d, a) != 0) begin
-        if (best == 2'd3) best = 2'(a);
-        else begin
-          lhs = PW'(nx(n, a)) * $signed({1'b0, dx(d, int'(best))});
-          rhs = PW'(nx(n, int'(best))) * $signed({1'b0, dx(d, a)});
-          if (lhs < rhs) best = 2'(a);
+    begin
+      best = 2'd3;
+      for (int a = 0; a < 3; a++) begin
+        if (dx(d, a) != 0) begin
+          if (best == 2'd3) best = 2'(a);
+          else begin
+            lhs = PW'(nx(n, a)) * $signed({1'b0, dx(d, {30'b0, best})});
+            rhs = PW'(nx(n, {30'b0, best})) * $signed({1'b0, dx(d, a)});
+            if (lhs < rhs) best = 2'(a);
+          end
         end
       end
+      next_axis = best;
     end
-    return best;
   endfunction
 
   logic             c_moved;
@@ -82,7 +96,7 @@ module shellsim_dda
   logic [2:0]       c_pin;
   logic             c_xb, c_eb, c_eab;
 
-  always_comb begin
+  always_comb begin : c_step
     logic done;
     logic [1:0] a;
     logic signed [CB+1:0] nc;
@@ -102,11 +116,11 @@ module shellsim_dda
     for (int pass = 0; pass < 4; pass++) begin
       if (!done) begin
         a = next_axis(c_n, in_den);
-        if (a == 2'd3 || c_pin[a]) done = 1'b1;
+        if (a == 2'd3 || c_pin[{30'b0, a}]) done = 1'b1;
         else begin
           nc = (CB+2)'(c_c[a*CB +: CB]) + (CB+2)'($signed(in_step[a*2 +: 2]));
           if (nc < 0 || nc >= $signed((CB+2)'(in_dims[a*CB +: CB]))) begin
-            c_pin[a] = 1'b1;
+            c_pin[{30'b0, a}] = 1'b1;
             c_n[a*NBW +: NBW] = nx(c_n, a) + NBW'(OVERSHOOT);
           end else begin
             c_c[a*CB +: CB] = CB'(nc);

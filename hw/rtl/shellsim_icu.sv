@@ -13,9 +13,28 @@
 // a job enters when in_valid (in_ready = !stall). Arrays are flattened into packed vectors
 // (vertex i, axis a at index 3*i + a) so that Verilator and Yosys read the same text.
 
-module shellsim_icu
-  import shellsim_cfg::*;
-(
+// Widths are module parameters whose defaults come from the package (Yosys 0.23 reads neither
+// an import in a module header nor packed arrays of arrays: arrays are flattened, functions
+// are Verilog-2001 style).
+module shellsim_icu #(
+    parameter int F          = shellsim_cfg::F,
+    parameter int CW         = shellsim_cfg::CW,
+    parameter int SW         = shellsim_cfg::SW,
+    parameter int TW         = shellsim_cfg::TW,
+    parameter int RW         = shellsim_cfg::RW,
+    parameter int EW         = shellsim_cfg::EW,
+    parameter int DW         = shellsim_cfg::DW,
+    parameter int NW         = shellsim_cfg::NW,
+    parameter int TTW        = shellsim_cfg::TTW,
+    parameter int DIV_BITS   = shellsim_cfg::DIV_BITS,
+    parameter int DIV_STAGES = shellsim_cfg::DIV_STAGES,
+    parameter int QF         = shellsim_cfg::QF,
+    parameter int SHIFT_N    = shellsim_cfg::SHIFT_N,
+    parameter int SHIFT_D    = shellsim_cfg::SHIFT_D,
+    parameter int XW         = shellsim_cfg::XW,
+    parameter int YW         = shellsim_cfg::YW,
+    parameter int CMPW       = shellsim_cfg::CMPW
+) (
     input  logic               clk,
     input  logic               rst,
     // The job: a ray record's set-up and a patch record (triangles: is_quad = 0, v3 unused).
@@ -41,6 +60,10 @@ module shellsim_icu
     output logic               out_saturated
 );
 
+  logic              rr_valid, rr_hit, rr_nz, rr_sat;   // the result register (below)
+  logic [31:0]       rr_tag;
+  logic [TTW-1:0]    rr_t;
+
   logic adv;
   assign adv      = !(rr_valid && !out_ready);
   assign in_ready = adv;
@@ -55,7 +78,7 @@ module shellsim_icu
   logic [SW-1:0]     r0_sx, r0_sy, r0_sz;
 
   logic [12*TW-1:0]  c0_p;
-  always_comb begin
+  always_comb begin : c_translate
     for (int i = 0; i < 4; i++)
       for (int a = 0; a < 3; a++) begin
         if (i < 3 || in_quad)
@@ -89,20 +112,25 @@ module shellsim_icu
   logic [31:0]       r1_tag;
   logic [4*RW-1:0]   r1_x, r1_y, r1_z;
 
-  function automatic logic signed [TW-1:0] axis(input logic [12*TW-1:0] p, input int i,
-                                                input logic [1:0] k);
-    return $signed(p[(3*i+k)*TW +: TW]);
+  function automatic signed [TW-1:0] axis;
+    input [12*TW-1:0] p;
+    input integer i;
+    input [1:0] k;
+    axis = p[(3*i+k)*TW +: TW];
   endfunction
 
-  function automatic logic signed [RW-1:0] round_a(input logic signed [SW+TW-1:0] prod);
+  function automatic signed [RW-1:0] round_a;
+    input signed [SW+TW-1:0] prod;
     logic signed [SW+TW:0] s;
-    s = $signed({prod[SW+TW-1], prod}) + (SW+TW+1)'(1 << (F-1));
-    return RW'(s >>> F);
+    begin
+      s = $signed({prod[SW+TW-1], prod}) + (SW+TW+1)'(1 << (F-1));
+      round_a = RW'(s >>> F);
+    end
   endfunction
 
   logic [4*RW-1:0] c1_x, c1_y, c1_z;
-  always_comb begin
-    for (int i = 0; i < 4; i++) begin
+  always_comb begin : c_shear
+    for (int i = 0; i < 4; i++) begin : per_vertex
       logic signed [TW-1:0] px, py, pz;
       px = axis(r0_p, i, r0_kx);
       py = axis(r0_p, i, r0_ky);
@@ -143,48 +171,60 @@ module shellsim_icu
   logic [EW-1:0]     r2_diag;
   logic              r2_orient_neg;   // orient = −1 (clockwise in ray space) when set
 
-  function automatic logic signed [RW-1:0] rx(input logic [4*RW-1:0] v, input int i);
-    return $signed(v[i*RW +: RW]);
+  function automatic signed [RW-1:0] rx;
+    input [4*RW-1:0] v;
+    input integer i;
+    rx = v[i*RW +: RW];
   endfunction
 
-  function automatic logic signed [EW-1:0] edge_fn(input logic [4*RW-1:0] x,
-                                                 input logic [4*RW-1:0] y,
-                                                 input int a, input int b);
-    return EW'(rx(x, a) * rx(y, b)) - EW'(rx(y, a) * rx(x, b));
+  function automatic signed [EW-1:0] edge_fn;
+    input [4*RW-1:0] x, y;
+    input integer a, b;
+    edge_fn = EW'(rx(x, a) * rx(y, b)) - EW'(rx(y, a) * rx(x, b));
   endfunction
 
   // An edge's part of the test: false when its function is an exact zero and the edge
   // (a → b, negated for a clockwise triangle) is not top-left; top_left(dx, dy) =
   // dy > 0 || (dy == 0 && dx < 0). An edge that projects to a point bounds nothing.
-  function automatic logic edge_ok(input logic [4*RW-1:0] x, input logic [4*RW-1:0] y,
-                                   input logic signed [EW-1:0] e, input int a, input int b,
-                                   input logic neg);
+  function automatic edge_ok;
+    input [4*RW-1:0] x, y;
+    input signed [EW-1:0] e;
+    input integer a, b;
+    input neg;
     logic signed [RW:0] dx, dy;
-    dx = rx(x, b) - rx(x, a);
-    dy = rx(y, b) - rx(y, a);
-    if (neg) begin
-      dx = -dx;
-      dy = -dy;
+    begin
+      dx = rx(x, b) - rx(x, a);
+      dy = rx(y, b) - rx(y, a);
+      if (neg) begin
+        dx = -dx;
+        dy = -dy;
+      end
+      edge_ok = !(e == 0 && (dx != 0 || dy != 0) && !(dy > 0 || (dy == 0 && dx < 0)));
     end
-    return !(e == 0 && (dx != 0 || dy != 0) && !(dy > 0 || (dy == 0 && dx < 0)));
   endfunction
 
   // One triangle's test over edges (e_k, a_k → b_k): {inside, clockwise}.
-  function automatic logic [1:0] tri_test(input logic [4*RW-1:0] x, input logic [4*RW-1:0] y,
-                                          input logic signed [EW-1:0] e0, input int a0, input int b0,
-                                          input logic signed [EW-1:0] e1, input int a1, input int b1,
-                                          input logic signed [EW-1:0] e2, input int a2, input int b2);
+  function automatic [1:0] tri_test;
+    input [4*RW-1:0] x, y;
+    input signed [EW-1:0] e0;
+    input integer a0, b0;
+    input signed [EW-1:0] e1;
+    input integer a1, b1;
+    input signed [EW-1:0] e2;
+    input integer a2, b2;
     logic pos, neg;
-    pos = (e0 > 0) || (e1 > 0) || (e2 > 0);
-    neg = (e0 < 0) || (e1 < 0) || (e2 < 0);
-    return {(pos != neg) && edge_ok(x, y, e0, a0, b0, neg) && edge_ok(x, y, e1, a1, b1, neg)
-              && edge_ok(x, y, e2, a2, b2, neg), neg};
+    begin
+      pos = (e0 > 0) || (e1 > 0) || (e2 > 0);
+      neg = (e0 < 0) || (e1 < 0) || (e2 < 0);
+      tri_test = {(pos != neg) && edge_ok(x, y, e0, a0, b0, neg)
+                  && edge_ok(x, y, e1, a1, b1, neg) && edge_ok(x, y, e2, a2, b2, neg), neg};
+    end
   endfunction
 
   logic [4*EW-1:0] c2_e;
   logic [EW-1:0]   c2_diag;
   logic            c2_inside, c2_neg;
-  always_comb begin
+  always_comb begin : c_edges
     logic [1:0] ta, tb;
     logic signed [EW-1:0] e0, e1, e2, e3, dg;
     ta = '0;
@@ -232,14 +272,16 @@ module shellsim_icu
   logic [NW-1:0]     r3_num;
   logic [DW-1:0]     r3_den;
 
-  function automatic logic signed [EW-1:0] ex(input logic [4*EW-1:0] e, input int k);
-    return $signed(e[k*EW +: EW]);
+  function automatic signed [EW-1:0] ex;
+    input [4*EW-1:0] e;
+    input integer k;
+    ex = e[k*EW +: EW];
   endfunction
 
   logic [NW-1:0] c3_num;
   logic [DW-1:0] c3_den;
   logic          c3_ok;
-  always_comb begin
+  always_comb begin : c_interpolate
     logic signed [EW:0] w0, w1, w2;   // one bit more: −diag
     logic signed [RW-1:0] z0, z1, z2;
     logic signed [DW-1:0] den;
@@ -290,34 +332,39 @@ module shellsim_icu
   //   X = 2N + D', Y = 2D' (N = num·2^(FT−F) or num; D' = den or den·2^(F−FT));
   //   Q = ⌊X / Y⌋ over QF = DIV_STAGES·DIV_BITS quotient bits, DIV_BITS per stage.
   // A job that cannot hit (not ok, or num < 0) divides X = 0 by Y = 1. ovf: Q ≥ 2^QF.
-  logic [DIV_STAGES-1:0]          rd_valid, rd_cand, rd_nz, rd_ovf;  // cand: ok and num ≥ 0
-  logic [DIV_STAGES-1:0][31:0]    rd_tag;
-  logic [DIV_STAGES-1:0][XW-1:0]  rd_r;   // the partial remainder
-  logic [DIV_STAGES-1:0][QF-1:0]  rd_q;   // quotient bits so far (those still to come zero)
-  logic [DIV_STAGES-1:0][YW-1:0]  rd_y;
+  // Stage k's fields at [k*W +: W] (flattened arrays).
+  logic [DIV_STAGES-1:0]     rd_valid, rd_cand, rd_nz, rd_ovf;  // cand: ok and num ≥ 0
+  logic [DIV_STAGES*32-1:0]  rd_tag;
+  logic [DIV_STAGES*XW-1:0]  rd_r;   // the partial remainder
+  logic [DIV_STAGES*QF-1:0]  rd_q;   // quotient bits so far (those still to come zero)
+  logic [DIV_STAGES*YW-1:0]  rd_y;
 
   // DIV_BITS restoring steps on quotient bits QF−1−j·DIV_BITS down.
-  function automatic logic [XW+QF-1:0] div_steps(input logic [XW-1:0] r_in,
-                                                 input logic [QF-1:0] q_in,
-                                                 input logic [YW-1:0] y, input int j);
+  function automatic [XW+QF-1:0] div_steps;
+    input [XW-1:0] r_in;
+    input [QF-1:0] q_in;
+    input [YW-1:0] y;
+    input integer j;
     logic [CMPW-1:0] r, ys;
     logic [QF-1:0] q;
-    r = CMPW'(r_in);
-    q = q_in;
-    for (int s = 0; s < DIV_BITS; s++) begin
-      ys = CMPW'(y) << (QF - 1 - j * DIV_BITS - s);
-      if (r >= ys) begin
-        r = r - ys;
-        q[QF-1-j*DIV_BITS-s] = 1'b1;
+    begin
+      r = CMPW'(r_in);
+      q = q_in;
+      for (int s = 0; s < DIV_BITS; s++) begin
+        ys = CMPW'(y) << (QF - 1 - j * DIV_BITS - s);
+        if (r >= ys) begin
+          r = r - ys;
+          q[QF-1-j*DIV_BITS-s] = 1'b1;
+        end
       end
+      div_steps = {XW'(r), q};
     end
-    return {XW'(r), q};
   endfunction
 
   logic            c4_cand, c4_nz, c4_ovf;
   logic [XW-1:0]   c4_x;
   logic [YW-1:0]   c4_y;
-  always_comb begin
+  always_comb begin : c_divide_in
     c4_cand = r3_ok && !r3_num[NW-1];
     c4_nz   = c4_cand && (r3_den < DW'(1 << F));
     if (c4_cand) begin
@@ -330,33 +377,34 @@ module shellsim_icu
     c4_ovf = CMPW'(c4_x) >= (CMPW'(c4_y) << QF);
   end
 
-  logic [DIV_STAGES-1:0][XW+QF-1:0] stepped;
-  always_comb begin
-    stepped[0] = div_steps(c4_x, '0, c4_y, 0);
+  logic [DIV_STAGES*(XW+QF)-1:0] stepped;
+  always_comb begin : c_divide
+    stepped[0 +: XW+QF] = div_steps(c4_x, '0, c4_y, 0);
     for (int k = 1; k < DIV_STAGES; k++)
-      stepped[k] = div_steps(rd_r[k-1], rd_q[k-1], rd_y[k-1], k);
+      stepped[k*(XW+QF) +: XW+QF] = div_steps(rd_r[(k-1)*XW +: XW], rd_q[(k-1)*QF +: QF],
+                                              rd_y[(k-1)*YW +: YW], k);
   end
 
   always_ff @(posedge clk) begin
     if (rst) rd_valid <= '0;
     else if (adv) begin
-      rd_valid[0] <= r3_valid;
-      rd_tag[0]   <= r3_tag;
-      rd_cand[0]  <= c4_cand;
-      rd_nz[0]    <= c4_nz;
-      rd_ovf[0]   <= c4_ovf;
-      rd_y[0]     <= c4_y;
+      rd_valid[0]      <= r3_valid;
+      rd_tag[0 +: 32]  <= r3_tag;
+      rd_cand[0]       <= c4_cand;
+      rd_nz[0]         <= c4_nz;
+      rd_ovf[0]        <= c4_ovf;
+      rd_y[0 +: YW]    <= c4_y;
       for (int k = 1; k < DIV_STAGES; k++) begin
-        rd_valid[k] <= rd_valid[k-1];
-        rd_tag[k]   <= rd_tag[k-1];
-        rd_cand[k]  <= rd_cand[k-1];
-        rd_nz[k]    <= rd_nz[k-1];
-        rd_ovf[k]   <= rd_ovf[k-1];
-        rd_y[k]     <= rd_y[k-1];
+        rd_valid[k]        <= rd_valid[k-1];
+        rd_tag[k*32 +: 32] <= rd_tag[(k-1)*32 +: 32];
+        rd_cand[k]         <= rd_cand[k-1];
+        rd_nz[k]           <= rd_nz[k-1];
+        rd_ovf[k]          <= rd_ovf[k-1];
+        rd_y[k*YW +: YW]   <= rd_y[(k-1)*YW +: YW];
       end
       for (int k = 0; k < DIV_STAGES; k++) begin
-        rd_r[k] <= stepped[k][XW+QF-1:QF];
-        rd_q[k] <= stepped[k][QF-1:0];
+        rd_r[k*XW +: XW] <= stepped[k*(XW+QF)+QF +: XW];
+        rd_q[k*QF +: QF] <= stepped[k*(XW+QF) +: QF];
       end
     end
   end
@@ -364,21 +412,18 @@ module shellsim_icu
   // ---------------------------------------------------------------------------------------
   // The result stage (Rust: the ICU's last register, `Reg::t`): a hit when the job could
   // hit and t fits its format (t ≤ 2^(TTW−1) − 1); otherwise saturated (counted, no hit).
-  logic              rr_valid, rr_hit, rr_nz, rr_sat;
-  logic [31:0]       rr_tag;
-  logic [TTW-1:0]    rr_t;
-
   logic c5_fits;
-  assign c5_fits = !rd_ovf[DIV_STAGES-1]
-                   && (rd_q[DIV_STAGES-1] <= QF'((64'(1) << (TTW - 1)) - 1));
+  logic [QF-1:0] q_last;
+  assign q_last  = rd_q[(DIV_STAGES-1)*QF +: QF];
+  assign c5_fits = !rd_ovf[DIV_STAGES-1] && (q_last <= QF'((64'(1) << (TTW - 1)) - 1));
 
   always_ff @(posedge clk) begin
     if (rst) rr_valid <= 1'b0;
     else if (adv) begin
       rr_valid <= rd_valid[DIV_STAGES-1];
-      rr_tag   <= rd_tag[DIV_STAGES-1];
+      rr_tag   <= rd_tag[(DIV_STAGES-1)*32 +: 32];
       rr_hit   <= rd_cand[DIV_STAGES-1] && c5_fits;
-      rr_t     <= (rd_cand[DIV_STAGES-1] && c5_fits) ? TTW'(rd_q[DIV_STAGES-1]) : '0;
+      rr_t     <= (rd_cand[DIV_STAGES-1] && c5_fits) ? TTW'(q_last) : '0;
       rr_nz    <= rd_nz[DIV_STAGES-1];
       rr_sat   <= rd_cand[DIV_STAGES-1] && !c5_fits;
     end

@@ -247,8 +247,13 @@ impl<W: Write> Stream<W> {
         self.w.write_all(&x.to_le_bytes())
     }
     fn words(&mut self, xs: &[u32]) -> std::io::Result<()> {
-        for &x in xs {
-            self.word(x)?;
+        self.words += xs.len() as u64;
+        let mut bytes = [0u8; 256];
+        for chunk in xs.chunks(64) {
+            for (i, x) in chunk.iter().enumerate() {
+                bytes[4 * i..4 * i + 4].copy_from_slice(&x.to_le_bytes());
+            }
+            self.w.write_all(&bytes[..4 * chunk.len()])?;
         }
         Ok(())
     }
@@ -331,6 +336,8 @@ pub fn replay_icu(
     let (ins, sts) = (p.inputs(Unit::Icu), p.stages(Unit::Icu));
     let wi = ins.iter().map(|f| f.bits()).sum::<u32>().div_ceil(32) as usize;
     let ws = sts.iter().map(|f| f.bits()).sum::<u32>().div_ceil(32) as usize;
+    let icu_widths = super::vectors::widths(&sts);
+    let (mut scratch, mut inb, mut exp) = (Vec::new(), Packer::default(), Packer::default());
     let mut model_error: Option<String> = None;
     let verdict = run_harness(bin, fst, &mut |s| {
         let mut next = 0usize;
@@ -349,13 +356,14 @@ pub fn replay_icu(
                     results[0].commit();
                 }
             }
-            let mut new_job: Option<(u32, Packer, Packer)> = None;
+            let mut new_job: Option<u32> = None;
             if input.is_empty() && next < jobs.len() && (pr.offer >= 1.0 || rng.gen_bool(pr.offer))
             {
                 let j = &jobs[next];
-                let (exp, t) = icu_expected(p, &sts, j);
+                let t = icu_expected(p, &icu_widths, j, &mut scratch, &mut exp);
                 expected_t.push(t);
-                new_job = Some((next as u32, icu_inputs(&ins, j), exp));
+                icu_inputs(&ins, j, &mut inb);
+                new_job = Some(next as u32);
                 input.push(
                     UnitId::RayBuffer(0),
                     Job {
@@ -405,7 +413,7 @@ pub fn replay_icu(
                 | (fired as u32) << 3
                 | (new_job.is_some() as u32) << 4;
             s.word(flags)?;
-            if let Some((tag, mut inb, mut exp)) = new_job {
+            if let Some(tag) = new_job {
                 s.word(tag)?;
                 inb.pad_to(wi);
                 exp.pad_to(ws);

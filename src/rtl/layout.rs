@@ -233,6 +233,8 @@ impl Params {
             fields,
         };
         let f = |name: &str, sv: &str, w: u32, n: u32| Field::new(name, sv, w, n);
+        // Element j of a flattened array of w-bit elements.
+        let slice = |sig: &str, j: u32, w: u32| format!("{sig}[{} +: {w}]", j * w);
         match unit {
             Unit::Icu => {
                 let mut v = vec![
@@ -291,14 +293,14 @@ impl Params {
                         name: format!("divide{j}"),
                         rust: "datapath::divider::stages",
                         valid: format!("u.rd_valid[{j}]"),
-                        tag: format!("u.rd_tag[{j}]"),
+                        tag: format!("u.rd_tag[{} +: 32]", 32 * j),
                         fields: vec![
                             f("cand", &format!("u.rd_cand[{j}]"), 1, 1),
                             f("near_zero", &format!("u.rd_nz[{j}]"), 1, 1),
                             f("ovf", &format!("u.rd_ovf[{j}]"), 1, 1),
-                            f("r", &format!("u.rd_r[{j}]"), self.div.xw, 1),
-                            f("q", &format!("u.rd_q[{j}]"), self.div.qf, 1),
-                            f("y", &format!("u.rd_y[{j}]"), self.div.yw, 1),
+                            f("r", &slice("u.rd_r", j, self.div.xw), self.div.xw, 1),
+                            f("q", &slice("u.rd_q", j, self.div.qf), self.div.qf, 1),
+                            f("y", &slice("u.rd_y", j, self.div.yw), self.div.yw, 1),
                         ],
                     });
                 }
@@ -372,6 +374,12 @@ impl Packer {
         for &v in values {
             self.push(v, field.width);
         }
+    }
+
+    /// Empties the packer, keeping its buffer.
+    pub fn clear(&mut self) {
+        self.words.clear();
+        self.bits = 0;
     }
 
     /// Pads to a whole number of `words`.

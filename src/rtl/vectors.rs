@@ -35,31 +35,40 @@ pub struct DdaJob {
     pub t: i64,
 }
 
-/// The input bus of an ICU job.
-pub fn icu_inputs(ins: &[Field], j: &IcuJob) -> Packer {
+/// The input bus of an ICU job, into `b` (`ins`: the ICU's input fields).
+pub fn icu_inputs(ins: &[Field], j: &IcuJob, b: &mut Packer) {
     let r = &j.ray;
-    let mut b = Packer::default();
-    let v: Vec<i128> = (0..12).map(|k| j.patch.v[k / 3][k % 3] as i128).collect();
-    let vals: [Vec<i128>; 9] = [
-        r.o.map(|x| x as i128).to_vec(),
-        vec![r.kx as i128],
-        vec![r.ky as i128],
-        vec![r.kz as i128],
-        vec![r.sx as i128],
-        vec![r.sy as i128],
-        vec![r.sz as i128],
-        vec![(j.patch.n_verts == 4) as i128],
-        v,
-    ];
-    for (f, v) in ins.iter().zip(vals.iter()) {
-        b.field(f, v);
+    let quad = (j.patch.n_verts == 4) as i64;
+    let scalars = [r.kx as i64, r.ky as i64, r.kz as i64, r.sx, r.sy, r.sz, quad];
+    let vals = r.o.iter().chain(&scalars).chain(j.patch.v.iter().flatten());
+    let widths = ins
+        .iter()
+        .flat_map(|f| std::iter::repeat_n(f.width, f.count as usize));
+    b.clear();
+    for (&v, w) in vals.zip(widths) {
+        b.push(v as i128, w);
     }
-    b
 }
 
-/// Every stage register of an ICU job as the model computes it, packed in stage order, and
-/// the job's result (t raw or no hit) from the model's stages.
-pub fn icu_expected(p: &Params, stages: &[Stage], j: &IcuJob) -> (Packer, Option<i64>) {
+/// The element widths of `stages`' fields, flattened in packing order.
+pub fn widths(stages: &[Stage]) -> Vec<u32> {
+    stages
+        .iter()
+        .flat_map(|s| s.fields.iter())
+        .flat_map(|f| std::iter::repeat_n(f.width, f.count as usize))
+        .collect()
+}
+
+/// Every stage register of an ICU job as the model computes it, packed in stage order into
+/// `out` (`widths`: [`widths`] of the ICU's stages; `vals` is scratch), and the job's result
+/// (t raw or no hit) from the model's stages. Allocates nothing once the buffers are grown.
+pub fn icu_expected(
+    p: &Params,
+    widths: &[u32],
+    j: &IcuJob,
+    vals: &mut Vec<i128>,
+    out: &mut Packer,
+) -> Option<i64> {
     let f = &p.f;
     let (r, pt) = (&j.ray, &j.patch);
     let mut exc = Exceptions::default();
@@ -67,57 +76,52 @@ pub fn icu_expected(p: &Params, stages: &[Stage], j: &IcuJob) -> (Packer, Option
     let sh = shear(r, &tr, f);
     let ed = edges(&sh);
     let ip = interpolate(&sh, &ed);
-    let dv = divider::stages(&ip, f, &p.div);
-    let last = dv.last().expect("at least one divider stage");
-    let (t, saturated) = divider::result(last, f);
     let quad = (pt.n_verts == 4) as i128;
-    let w = |a: &[i64]| a.iter().map(|&x| x as i128).collect::<Vec<_>>();
-    let pv: Vec<i128> = (0..12).map(|k| tr.p[k / 3][k % 3] as i128).collect();
-    let mut values: Vec<Vec<Vec<i128>>> = vec![
-        vec![
-            vec![quad],
-            pv,
-            vec![r.kx as i128],
-            vec![r.ky as i128],
-            vec![r.kz as i128],
-            vec![r.sx as i128],
-            vec![r.sy as i128],
-            vec![r.sz as i128],
-        ],
-        vec![vec![quad], w(&sh.x), w(&sh.y), w(&sh.z)],
-        vec![
-            vec![quad],
-            vec![ed.inside as i128],
-            vec![(ed.orient == -1) as i128],
-            w(&sh.z),
-            ed.e.to_vec(),
-            vec![ed.diag],
-        ],
-        vec![vec![ip.valid as i128], vec![ip.num], vec![ip.den]],
-    ];
-    for s in &dv {
-        values.push(vec![
-            vec![s.cand as i128],
-            vec![s.near_zero as i128],
-            vec![s.ovf as i128],
-            vec![s.r as i128],
-            vec![s.q as i128],
-            vec![s.y as i128],
+    vals.clear();
+    // translate
+    vals.push(quad);
+    vals.extend(tr.p.iter().flatten().map(|&x| x as i128));
+    vals.extend([r.kx, r.ky, r.kz].map(|x| x as i128));
+    vals.extend([r.sx, r.sy, r.sz].map(|x| x as i128));
+    // shear
+    vals.push(quad);
+    for a in [&sh.x, &sh.y, &sh.z] {
+        vals.extend(a.iter().map(|&x| x as i128));
+    }
+    // edges
+    vals.extend([quad, ed.inside as i128, (ed.orient == -1) as i128]);
+    vals.extend(sh.z.iter().map(|&x| x as i128));
+    vals.extend(ed.e);
+    vals.push(ed.diag);
+    // interpolate
+    vals.extend([ip.valid as i128, ip.num, ip.den]);
+    // divide
+    let mut last = divider::DividerStage::default();
+    divider::for_each_stage(&ip, f, &p.div, |s| {
+        vals.extend([
+            s.cand as i128,
+            s.near_zero as i128,
+            s.ovf as i128,
+            s.r as i128,
+            s.q as i128,
+            s.y as i128,
         ]);
-    }
-    values.push(vec![
-        vec![t.is_some() as i128],
-        vec![t.unwrap_or(0) as i128],
-        vec![last.near_zero as i128],
-        vec![saturated as i128],
+        last = *s;
+    });
+    // result
+    let (t, saturated) = divider::result(&last, f);
+    vals.extend([
+        t.is_some() as i128,
+        t.unwrap_or(0) as i128,
+        last.near_zero as i128,
+        saturated as i128,
     ]);
-    let mut b = Packer::default();
-    for (st, vals) in stages.iter().zip(&values) {
-        for (fld, v) in st.fields.iter().zip(vals) {
-            b.field(fld, v);
-        }
+    debug_assert_eq!(vals.len(), widths.len());
+    out.clear();
+    for (&v, &w) in vals.iter().zip(widths) {
+        out.push(v, w);
     }
-    (b, t)
+    t
 }
 
 /// The input bus of a DDA vector.

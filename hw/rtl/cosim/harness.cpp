@@ -46,10 +46,20 @@ template <std::size_t N> void get(const VlWide<N>& d, uint32_t* w) {
 
 bool bit(const uint32_t* w, uint32_t i) { return (w[i / 32] >> (i % 32)) & 1; }
 
-// Compares `width` bits at `off` of a and b.
+// `n` ≤ 32 bits of w from bit `at`.
+uint32_t bits32(const uint32_t* w, uint32_t at, uint32_t n) {
+  uint32_t i = at / 32, s = at % 32;
+  uint64_t x = w[i] >> s;
+  if (s != 0 && s + n > 32) x |= static_cast<uint64_t>(w[i + 1]) << (32 - s);
+  return n == 32 ? static_cast<uint32_t>(x) : static_cast<uint32_t>(x) & ((1u << n) - 1);
+}
+
+// Compares `width` bits at `off` of a and b, 32 at a time.
 bool same(const uint32_t* a, const uint32_t* b, uint32_t off, uint32_t width) {
-  for (uint32_t i = off; i < off + width; i++)
-    if (bit(a, i) != bit(b, i)) return false;
+  for (uint32_t i = 0; i < width; i += 32) {
+    uint32_t n = width - i < 32 ? width - i : 32;
+    if (bits32(a, off + i, n) != bits32(b, off + i, n)) return false;
+  }
   return true;
 }
 
