@@ -10,16 +10,106 @@ use std::path::PathBuf;
 
 /// Arguments of `shellsim rtl`.
 #[derive(clap::Args, Debug)]
+#[command(args_conflicts_with_subcommands = true)]
 pub struct RtlArgs {
+    #[command(subcommand)]
+    pub cmd: Option<RtlCmd>,
     #[command(flatten)]
     pub datapath: DatapathArgs,
     /// Directory for the package `shellsim_cfg.sv`, the RTL and the co-simulation tops.
     #[arg(long)]
-    pub out: PathBuf,
+    pub out: Option<PathBuf>,
+}
+
+/// `shellsim rtl`'s subcommands.
+#[derive(clap::Subcommand, Debug)]
+pub enum RtlCmd {
+    /// Synthesize the ICU and the DDA step with Yosys: cells, flip-flops, logic depth, and
+    /// ECP5 LUT4s and multipliers, beside the bits proxy (cached by configuration).
+    Cost(CostArgs),
+}
+
+/// Arguments of `shellsim rtl cost`.
+#[derive(clap::Args, Debug)]
+pub struct CostArgs {
+    #[command(flatten)]
+    pub datapath: DatapathArgs,
+    /// Synthesize every fractional width A..B (both included) instead of the configuration's.
+    #[arg(long, value_name = "A..B", value_parser = super::args::parse_bits_range)]
+    pub sweep: Option<(u32, u32)>,
+    /// Skip the ECP5 mapping (LUTs and multipliers): generic synthesis only.
+    #[arg(long)]
+    pub no_fpga: bool,
+    /// Write the table (markdown) and the fit of cells to the bits proxy here.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+}
+
+/// Runs `shellsim rtl cost`.
+fn run_cost(a: &CostArgs) -> Result<()> {
+    use crate::rtl::cost::{fit, synth_cost};
+    use crate::rtl::layout::Unit;
+    let base = a.datapath.resolve_config()?;
+    let widths: Vec<u32> = match a.sweep {
+        Some((lo, hi)) => (lo..=hi).collect(),
+        None => vec![base.datapath.frac_bits],
+    };
+    let mut rows = vec![];
+    for f in widths {
+        let mut cfg = base.clone();
+        cfg.datapath = crate::config::with_frac_bits(cfg.datapath, f)?;
+        let p = Params::new(&cfg)?;
+        for unit in [Unit::Icu, Unit::Dda] {
+            eprintln!("synthesizing the {} at F = {f}", unit.name());
+            rows.push(synth_cost(&p, unit, !a.no_fpga)?);
+        }
+    }
+    let opt = |x: Option<u64>| x.map_or("-".to_string(), |v| v.to_string());
+    let mut md = String::from(
+        "| unit | F | cells | flip-flops | depth | ECP5 LUT4 | ECP5 MULT18 | bits proxy |\n|---|---:|---:|---:|---:|---:|---:|---:|\n",
+    );
+    for r in &rows {
+        md.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            r.unit,
+            r.frac_bits,
+            r.cells,
+            r.flip_flops,
+            r.depth,
+            opt(r.luts),
+            opt(r.multipliers),
+            if r.unit == "icu" { r.bits_proxy.to_string() } else { "-".into() }
+        ));
+    }
+    let icu: Vec<(f64, f64)> = rows
+        .iter()
+        .filter(|r| r.unit == "icu")
+        .map(|r| (r.bits_proxy as f64, r.cells as f64))
+        .collect();
+    if icu.len() >= 3 {
+        let (c0, c1, r) = fit(&icu);
+        md.push_str(&format!(
+            "\nICU cells ≈ {c0:.0} + {c1:.3} × bits proxy (r = {r:.4}, {} widths)\n",
+            icu.len()
+        ));
+    }
+    crate::output::out!("{md}");
+    if let Some(o) = &a.out {
+        crate::output::write_atomic(o, md.as_bytes())?;
+    }
+    Ok(())
 }
 
 /// Runs `shellsim rtl`.
 pub fn run_rtl(a: &RtlArgs) -> Result<()> {
+    if let Some(RtlCmd::Cost(c)) = &a.cmd {
+        return run_cost(c);
+    }
+    let Some(out) = &a.out else {
+        return Err(Error::Usage(
+            "shellsim rtl needs --out DIR (or the subcommand `cost`)".into(),
+        ));
+    };
     let cfg = a.datapath.resolve_config()?;
     let p = Params::new(&cfg)?;
     let what = a
@@ -30,7 +120,7 @@ pub fn run_rtl(a: &RtlArgs) -> Result<()> {
         .map_or("the built-in paper.toml".to_string(), |h| {
             h.display().to_string()
         });
-    let files = crate::rtl::write_rtl(&a.out, &p, &what)?;
+    let files = crate::rtl::write_rtl(out, &p, &what)?;
     for f in files {
         outln!("wrote {}", f.display());
     }

@@ -8,6 +8,7 @@
 //! the co-simulation's buses; the hand-written RTL reads only the package.
 
 pub mod cosim;
+pub mod cost;
 pub mod layout;
 pub mod vectors;
 
