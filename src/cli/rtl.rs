@@ -78,7 +78,11 @@ fn run_cost(a: &CostArgs) -> Result<()> {
             r.depth,
             opt(r.luts),
             opt(r.multipliers),
-            if r.unit == "icu" { r.bits_proxy.to_string() } else { "-".into() }
+            if r.unit == "icu" {
+                r.bits_proxy.to_string()
+            } else {
+                "-".into()
+            }
         ));
     }
     let icu: Vec<(f64, f64)> = rows
@@ -195,7 +199,12 @@ pub fn run_cosim(a: &CosimArgs) -> Result<()> {
         },
         fst: a.fst.clone(),
     };
-    let (report, timings) = cosim::run(&o, &mut |m| eprintln!("{m}"))?;
+    let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let (report, timings) = cosim::run(&o, &mut |m| {
+        if tty {
+            eprintln!("{m}")
+        }
+    })?;
     let s = &report.sources;
     outln!(
         "co-simulation at F = {}: bit-exact in every stage register and every handshake",
@@ -224,7 +233,11 @@ pub fn run_cosim(a: &CosimArgs) -> Result<()> {
         if *build > 0.0 {
             outln!("  {what}: {build:.1} s");
         } else if t.seconds > 0.0 {
-            outln!("  {what}: {:.2} M vectors/s", t.vectors_per_second / 1e6);
+            outln!(
+                "  {what}: {:.2} M vectors/s ({:.1} s)",
+                t.vectors_per_second / 1e6,
+                t.seconds
+            );
         }
     }
     if let Some(j) = &a.json {

@@ -64,7 +64,11 @@ fn yosys(dir: &Path, script: &str) -> Result<String> {
         .map_err(|e| Error::io(Path::new("yosys"), e))?;
     let log = std::fs::read_to_string(dir.join("run.log")).unwrap_or_default();
     if !out.status.success() {
-        let err: Vec<&str> = log.lines().filter(|l| l.contains("ERROR")).take(5).collect();
+        let err: Vec<&str> = log
+            .lines()
+            .filter(|l| l.contains("ERROR"))
+            .take(5)
+            .collect();
         return Err(Error::Check(format!(
             "yosys failed in {}: {}",
             dir.display(),
@@ -94,7 +98,11 @@ pub fn synth_cost(p: &Params, unit: Unit, fpga: bool) -> Result<SynthCost> {
     {
         return Ok(c);
     }
-    let dir = super::cache_dir().join(format!("synth-{}-{key}.tmp{}", unit.name(), std::process::id()));
+    let dir = super::cache_dir().join(format!(
+        "synth-{}-{key}.tmp{}",
+        unit.name(),
+        std::process::id()
+    ));
     std::fs::create_dir_all(&dir).map_err(|e| Error::io(&dir, e))?;
     for (n, t) in [("shellsim_cfg.sv", pkg.as_str()), ("unit.sv", src)] {
         std::fs::write(dir.join(n), t).map_err(|e| Error::io(&dir.join(n), e))?;
@@ -103,7 +111,9 @@ pub fn synth_cost(p: &Params, unit: Unit, fpga: bool) -> Result<SynthCost> {
     let read = "read_verilog -sv shellsim_cfg.sv unit.sv\n";
     let log = yosys(
         &dir,
-        &format!("{read}synth -top {top} -flatten\ntee -o stat.txt stat\ntee -o ltp.txt ltp -noff\n"),
+        &format!(
+            "{read}synth -top {top} -flatten\ntee -o stat.txt stat\ntee -o ltp.txt ltp -noff\n"
+        ),
     )?;
     let stat = std::fs::read_to_string(dir.join("stat.txt")).unwrap_or(log.clone());
     let ltp = std::fs::read_to_string(dir.join("ltp.txt")).unwrap_or(log);
@@ -113,7 +123,10 @@ pub fn synth_cost(p: &Params, unit: Unit, fpga: bool) -> Result<SynthCost> {
         .ok_or_else(|| Error::Check(format!("no path length in {}", dir.display())))?;
     let (mut luts, mut multipliers) = (None, None);
     if fpga {
-        yosys(&dir, &format!("{read}synth_ecp5 -top {top}\ntee -o ecp5.txt stat\n"))?;
+        yosys(
+            &dir,
+            &format!("{read}synth_ecp5 -top {top}\ntee -o ecp5.txt stat\n"),
+        )?;
         let e = std::fs::read_to_string(dir.join("ecp5.txt")).unwrap_or_default();
         luts = Some(count_cells(&e, &["LUT4"]));
         multipliers = Some(count_cells(&e, &["MULT18X18D"]));
@@ -138,7 +151,9 @@ pub fn synth_cost(p: &Params, unit: Unit, fpga: bool) -> Result<SynthCost> {
 /// The least-squares line cells ≈ a + b · proxy over `rows`, and its correlation r.
 pub fn fit(rows: &[(f64, f64)]) -> (f64, f64, f64) {
     let n = rows.len() as f64;
-    let (sx, sy) = rows.iter().fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
+    let (sx, sy) = rows
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
     let (mx, my) = (sx / n, sy / n);
     let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
     for (x, y) in rows {
@@ -147,7 +162,11 @@ pub fn fit(rows: &[(f64, f64)]) -> (f64, f64, f64) {
         syy += (y - my) * (y - my);
     }
     let b = if sxx > 0.0 { sxy / sxx } else { 0.0 };
-    let r = if sxx > 0.0 && syy > 0.0 { sxy / (sxx * syy).sqrt() } else { 0.0 };
+    let r = if sxx > 0.0 && syy > 0.0 {
+        sxy / (sxx * syy).sqrt()
+    } else {
+        0.0
+    };
     (my - b * mx, b, r)
 }
 

@@ -39,7 +39,15 @@ pub struct DdaJob {
 pub fn icu_inputs(ins: &[Field], j: &IcuJob, b: &mut Packer) {
     let r = &j.ray;
     let quad = (j.patch.n_verts == 4) as i64;
-    let scalars = [r.kx as i64, r.ky as i64, r.kz as i64, r.sx, r.sy, r.sz, quad];
+    let scalars = [
+        r.kx as i64,
+        r.ky as i64,
+        r.kz as i64,
+        r.sx,
+        r.sy,
+        r.sz,
+        quad,
+    ];
     let vals = r.o.iter().chain(&scalars).chain(j.patch.v.iter().flatten());
     let widths = ins
         .iter()

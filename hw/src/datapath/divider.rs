@@ -77,6 +77,18 @@ pub struct DividerStage {
 
 /// Every divider stage's register for the fraction `q` (index 0 is the first stage).
 pub fn stages(q: &Interpolated, f: &Formats, shape: &DividerShape) -> Vec<DividerStage> {
+    let mut v = Vec::with_capacity(shape.stages as usize);
+    for_each_stage(q, f, shape, |s| v.push(*s));
+    v
+}
+
+/// Calls `each` with every divider stage's register for the fraction `q`, first to last.
+pub fn for_each_stage(
+    q: &Interpolated,
+    f: &Formats,
+    shape: &DividerShape,
+    mut each: impl FnMut(&DividerStage),
+) {
     let cand = q.valid && q.num >= 0;
     let (x, y) = if cand {
         (
@@ -94,19 +106,17 @@ pub fn stages(q: &Interpolated, f: &Formats, shape: &DividerShape) -> Vec<Divide
         q: 0,
         y,
     };
-    (0..shape.stages)
-        .map(|j| {
-            for k in 0..shape.bits_per_stage {
-                let bit = shape.qf - 1 - j * shape.bits_per_stage - k;
-                let ys = s.y << bit;
-                if s.r >= ys {
-                    s.r -= ys;
-                    s.q |= 1 << bit;
-                }
+    for j in 0..shape.stages {
+        for k in 0..shape.bits_per_stage {
+            let bit = shape.qf - 1 - j * shape.bits_per_stage - k;
+            let ys = s.y << bit;
+            if s.r >= ys {
+                s.r -= ys;
+                s.q |= 1 << bit;
             }
-            s
-        })
-        .collect()
+        }
+        each(&s);
+    }
 }
 
 /// The result stage from the last divider stage: t raw when a hit, and whether the quotient
