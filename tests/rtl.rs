@@ -125,3 +125,125 @@ fn the_dda_tie_rule_turned_is_named_in_its_step() {
         .to_string();
     assert!(e.contains("`step`"), "{e}");
 }
+
+/// Values by signal name at each sample time, from a VCD (`vcd` crate), signals sharing an
+/// id code included under each of their names.
+fn samples(
+    vcd_text: &[u8],
+) -> std::collections::BTreeMap<u64, std::collections::HashMap<String, String>> {
+    use std::collections::{BTreeMap, HashMap};
+    let mut p = vcd::Parser::new(std::io::Cursor::new(vcd_text));
+    let header = p.parse_header().unwrap();
+    let mut names: HashMap<vcd::IdCode, Vec<String>> = HashMap::new();
+    fn walk(items: &[vcd::ScopeItem], prefix: &str, names: &mut HashMap<vcd::IdCode, Vec<String>>) {
+        for i in items {
+            match i {
+                vcd::ScopeItem::Scope(s) => {
+                    walk(&s.items, &format!("{prefix}{}.", s.identifier), names)
+                }
+                vcd::ScopeItem::Var(v) => names
+                    .entry(v.code)
+                    .or_default()
+                    .push(format!("{prefix}{}", v.reference)),
+                _ => {}
+            }
+        }
+    }
+    walk(&header.items, "", &mut names);
+    let mut now: HashMap<String, String> = HashMap::new();
+    let mut out = BTreeMap::new();
+    let mut time = 0u64;
+    let binary = |v: &vcd::Vector| -> String {
+        let s: String = v.iter().map(|b| b.to_string()).collect();
+        let t = s.trim_start_matches('0');
+        if t.is_empty() {
+            "0".into()
+        } else {
+            t.into()
+        }
+    };
+    for cmd in p {
+        let (code, value) = match cmd.unwrap() {
+            vcd::Command::Timestamp(t) => {
+                out.insert(time, now.clone());
+                time = t;
+                continue;
+            }
+            vcd::Command::ChangeScalar(c, v) => (c, v.to_string()),
+            vcd::Command::ChangeVector(c, v) => (c, binary(&v)),
+            _ => continue,
+        };
+        for n in names.get(&code).into_iter().flatten() {
+            now.insert(n.clone(), value.clone());
+        }
+    }
+    out.insert(time, now);
+    out
+}
+
+/// The side-by-side waveform: Verilator's FST of the RTL ICU holds, under the model's names,
+/// the same stage values as the model's ICU at every cycle (read back by GTKWave's fst2vcd),
+/// and the .gtkw names only signals the file has.
+#[test]
+fn the_side_by_side_waveform_shows_the_rtl_and_the_model_alike_stage_by_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let fst = dir.path().join("side.fst");
+    let p = Params::new(&config(12)).unwrap();
+    let built = build(&p, Unit::Icu, true, SOURCES).unwrap();
+    let jobs = directed_and_random(&p, 3000, 9, false);
+    let pr = Pressure {
+        offer: 0.8,
+        take: 0.5,
+        seed: 4,
+    };
+    replay_icu(&p, &built.binary, &jobs, pr, Some(&fst), &|_| String::new()).unwrap();
+    let out = std::process::Command::new("fst2vcd")
+        .arg(&fst)
+        .output()
+        .expect("fst2vcd (GTKWave) runs: .ci/run installs it");
+    assert!(out.status.success());
+    // fst2vcd declares SystemVerilog `logic` and `int` variables, types the vcd crate predates.
+    let text = String::from_utf8(out.stdout)
+        .unwrap()
+        .replace("$var logic ", "$var wire ")
+        .replace("$var int ", "$var integer ");
+    let by_time = samples(text.as_bytes());
+    let depth = p.stages(Unit::Icu).len();
+    let (mut compared, mut valid, mut hits) = (0, 0, 0);
+    for (t, vals) in &by_time {
+        for k in 0..depth {
+            let mut sigs = vec!["valid", "ray", "patch"];
+            if k + 1 == depth {
+                sigs.push("t");
+            }
+            for s in sigs {
+                let get = |scope: &str| {
+                    vals.get(&format!("TOP.cosim_top.{scope}.stage_{k}.{s}"))
+                        .cloned()
+                };
+                let (r, m) = (get("icu"), get("model_icu"));
+                assert!(r.is_some(), "no RTL signal stage_{k}.{s} at {t}");
+                assert_eq!(r, m, "stage {k} {s} at time {t}");
+                compared += 1;
+                valid += (s == "valid" && r.as_deref() == Some("1")) as u32;
+                hits += (s == "t" && r.as_deref() != Some("0")) as u32;
+            }
+        }
+    }
+    assert!(
+        by_time.len() > 3000 && valid > 5000 && hits > 100,
+        "{} {valid} {hits}",
+        by_time.len()
+    );
+    assert!(compared > 100_000);
+    // Every signal the save file names is in the waveform.
+    let gtkw = shellsim::rtl::side_by_side_gtkw(&p, &fst);
+    let last = by_time.values().last().unwrap();
+    for line in gtkw.lines().filter(|l| l.contains(" TOP.")) {
+        let name = line.split(' ').nth(2).unwrap().split('[').next().unwrap();
+        assert!(
+            last.contains_key(name),
+            "{name} of the .gtkw is not in the FST"
+        );
+    }
+}

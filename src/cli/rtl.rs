@@ -56,7 +56,7 @@ fn run_cost(a: &CostArgs) -> Result<()> {
     };
     let mut rows = vec![];
     for f in widths {
-        let mut cfg = base.clone();
+        let mut cfg = base;
         cfg.datapath = crate::config::with_frac_bits(cfg.datapath, f)?;
         let p = Params::new(&cfg)?;
         for unit in [Unit::Icu, Unit::Dda] {
@@ -239,6 +239,17 @@ pub fn run_cosim(a: &CosimArgs) -> Result<()> {
                 t.seconds
             );
         }
+    }
+    if let Some(f) = &a.fst {
+        let p = Params::new(&o.cfg)?;
+        let gtkw = f.with_extension("gtkw");
+        crate::output::write_atomic(&gtkw, crate::rtl::side_by_side_gtkw(&p, f).as_bytes())?;
+        outln!(
+            "  waveform: {} (the RTL's ICU beside the model's: gtkwave {} {})",
+            f.display(),
+            f.display(),
+            gtkw.display()
+        );
     }
     if let Some(j) = &a.json {
         let text = serde_json::to_string_pretty(&report).expect("serializable");

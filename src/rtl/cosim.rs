@@ -57,8 +57,9 @@ pub fn build(p: &Params, unit: Unit, trace: bool, sources: &[(&str, &str)]) -> R
         return Err(super::missing_tool("verilator", "verilator"));
     }
     let pkg = super::package_sv(p, "the configuration");
-    let top = super::top_sv(p, unit);
-    let shape = super::shape_h(p, unit);
+    let side = trace && unit == Unit::Icu;
+    let top = super::top_sv(p, unit, side);
+    let shape = super::shape_h(p, unit, side);
     let mut parts: Vec<&str> = vec![
         &pkg,
         &top,
@@ -338,6 +339,13 @@ pub fn replay_icu(
     let ws = sts.iter().map(|f| f.bits()).sum::<u32>().div_ceil(32) as usize;
     let icu_widths = super::vectors::widths(&sts);
     let (mut scratch, mut inb, mut exp) = (Vec::new(), Packer::default(), Packer::default());
+    let mut snapshot: Vec<u32> = Vec::new();
+    if fst.is_some() && depth > 32 {
+        return Err(Error::Param {
+            key: "divider_bits_per_stage".into(),
+            what: format!("gives {depth} ICU stages: a side-by-side waveform shows at most 32"),
+        });
+    }
     let mut model_error: Option<String> = None;
     let verdict = run_harness(bin, fst, &mut |s| {
         let mut next = 0usize;
@@ -382,6 +390,25 @@ pub fn replay_icu(
             }
             let in_valid = input.valid();
             let out_ready = results[0].can_push();
+            if fst.is_some() {
+                snapshot.clear();
+                let (mut mask, mut t_last) = (0u32, 0i64);
+                let (mut rays_k, mut patches_k) = ([0u32; 32], [0u32; 32]);
+                let mut k = 0;
+                icu.for_each_stage(|v, r, pa, t| {
+                    mask |= (v as u32) << k;
+                    rays_k[k] = r as u32;
+                    patches_k[k] = pa as u32;
+                    if let Some(t) = t {
+                        t_last = t;
+                    }
+                    k += 1;
+                });
+                snapshot.push(mask);
+                snapshot.extend_from_slice(&rays_k[..depth]);
+                snapshot.extend_from_slice(&patches_k[..depth]);
+                snapshot.extend([t_last as u32, (t_last >> 32) as u32]);
+            }
             let last_valid = icu.stage_job(depth - 1).is_some();
             let in_ready = !last_valid || out_ready;
             let before = icu.stats.results_out;
@@ -411,7 +438,8 @@ pub fn replay_icu(
                 | (out_ready as u32) << 1
                 | (in_ready as u32) << 2
                 | (fired as u32) << 3
-                | (new_job.is_some() as u32) << 4;
+                | (new_job.is_some() as u32) << 4
+                | (fst.is_some() as u32) << 5;
             s.word(flags)?;
             if let Some(tag) = new_job {
                 s.word(tag)?;
@@ -422,6 +450,9 @@ pub fn replay_icu(
             }
             if let Some(t) = fire_tag {
                 s.word(t)?;
+            }
+            if fst.is_some() {
+                s.words(&snapshot)?;
             }
             cycles += 1;
         }

@@ -8,6 +8,8 @@
 //          (out_valid && out_ready), bit4 a new job follows; 0xFFFFFFFF ends the stream.
 //   a new job: tag, IN_WORDS of in_bus, ST_WORDS of the job's expected stage registers.
 //   an expected fire: the tag that leaves.
+//   bit5 (side-by-side waveform builds): the model ICU's stages this cycle — a valid mask,
+//          S ray ids, S patch ids, t of the result stage (2 words) — driven onto m_*.
 // Output: "OK cycles=C jobs=J" (exit 0), or one "MISMATCH ..." line (exit 1); a malformed
 // stream is exit 2.
 
@@ -108,15 +110,15 @@ int main(int argc, char** argv) {
 #if COSIM_TRACE
     if (trace_path) tfp.dump(time);
 #endif
-    time += 5;
+    time += 10;
   };
+  // One sample per cycle, before its edge (time 10·cycle): the registers and the model's
+  // values of the same cycle side by side.
   auto edge = [&]() {
     top.clk = 1;
     top.eval();
-    dump();
     top.clk = 0;
     top.eval();
-    dump();
   };
   top.clk = 0;
   top.rst = 1;
@@ -153,9 +155,25 @@ int main(int argc, char** argv) {
     }
     uint32_t fire_tag = 0;
     if ((flags & 8) && !read_words(&fire_tag, 1)) return 2;
+#if COSIM_MODEL
+    if (flags & 32) {
+      uint32_t snap[1 + 2 * S + 2];
+      if (!read_words(snap, 1 + 2 * S + 2)) return 2;
+      top.m_valid = snap[0];
+      put(top.m_ray, snap + 1);
+      put(top.m_patch, snap + 1 + S);
+      put(top.m_t, snap + 1 + 2 * S);
+    }
+#else
+    if (flags & 32) {
+      std::fprintf(stderr, "a model snapshot in the stream, but this harness shows none\n");
+      return 2;
+    }
+#endif
     top.in_valid = flags & 1;
     top.out_ready = (flags >> 1) & 1;
     top.eval();
+    dump();
     const unsigned long long c = cycle;
     if (static_cast<bool>(top.in_ready) != static_cast<bool>(flags & 4)) {
       std::printf("MISMATCH kind=in_ready cycle=%llu rtl=%d model=%d\n", c, int(top.in_ready),
