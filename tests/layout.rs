@@ -1,6 +1,6 @@
 //! The dependency rule of ARCHITECTURE.md, checked on the source text: src/'s top-level
 //! modules depend one way (no circle), nothing imports `cli`, every edge goes down the
-//! layering cli → explore → experiment, size, radiosity → machine → fixed, partition → reference → scene (the leaves
+//! layering cli → explore, rtl → experiment, size, radiosity, stability → machine → fixed, partition → reference → scene (the leaves
 //! error, output, limits, config, paper, progress and chart may be used from anywhere), scene's model
 //! never imports its OBJ reader (which builds model's types), and hw/ never depends on the host.
 
@@ -19,6 +19,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("radiosity", 5),
     ("stability", 5),
     ("explore", 6),
+    ("rtl", 6),
     ("cli", 7),
 ];
 

@@ -646,9 +646,15 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Timin
     keep_fitting_icu(&p, &mut real);
     sources.scenes = real.len() as u64;
     let before = real.len();
-    stability_jobs(&p, 64, o.seed, (n / 10 / 17).max(16), &mut real);
+    let cases = crate::stability::all_cases().len().max(1);
+    sources.stability_cases = stability_jobs(&p, 400, o.seed, (n / 10 / cases).max(1), &mut real);
     sources.stability = (real.len() - before) as u64;
-    real.truncate(n);
+    if real.len() > n {
+        return Err(Error::Usage(format!(
+            "--vectors {n} is fewer than the scenes' and the stability cases' {} vectors: ask for at least that many",
+            real.len()
+        )));
+    }
     let mut done = 0usize;
     let mut chunk_no = 0u64;
     let mut first = true;

@@ -292,12 +292,11 @@ pub fn cache_dir() -> PathBuf {
         .unwrap_or_else(|| PathBuf::from("target/rtl-cache"))
 }
 
-/// A stable hash of texts (the cache key of a build).
+/// A hash of texts: the cache key of a build or a synthesis (std's SipHash with fixed keys:
+/// stable for a toolchain; a new one only rebuilds the cache).
 pub fn hash_of(parts: &[&str]) -> String {
-    let mut h = crate::explore::spec::FNV_START;
-    for p in parts {
-        h = crate::explore::spec::fnv1a(p.as_bytes(), h);
-        h = crate::explore::spec::fnv1a(&[0], h);
-    }
-    format!("{h:016x}")
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    parts.hash(&mut h);
+    format!("{:016x}", h.finish())
 }

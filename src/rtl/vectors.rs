@@ -212,6 +212,8 @@ fn dda_fits(p: &Params, j: &DdaJob) -> bool {
 pub struct Sources {
     pub scenes: u64,
     pub stability: u64,
+    /// Of those, each stability case's (by name, in report order).
+    pub stability_cases: Vec<(String, u64)>,
     pub directed: u64,
     pub random: u64,
 }
@@ -275,7 +277,14 @@ pub fn scene_jobs(
 
 /// The ICU jobs of every stability case: each ray against every patch of its case (at most
 /// `per_case` jobs a case).
-pub fn stability_jobs(p: &Params, rays: usize, seed: u64, per_case: usize, icu: &mut Vec<IcuJob>) {
+pub fn stability_jobs(
+    p: &Params,
+    rays: usize,
+    seed: u64,
+    per_case: usize,
+    icu: &mut Vec<IcuJob>,
+) -> Vec<(String, u64)> {
+    let mut counts = vec![];
     let mut cfg = shellsim_hw::config::paper();
     cfg.datapath.frac_bits = p.f.coord.frac_bits;
     cfg.datapath.coord_int_bits = p.f.coord.int_bits;
@@ -289,20 +298,23 @@ pub fn stability_jobs(p: &Params, rays: usize, seed: u64, per_case: usize, icu: 
         let Ok(host) = HostFixed::new(&case.scene, Path::new(case.name), cfg.datapath, cell) else {
             continue;
         };
-        let mut k = 0;
+        let mut jobs = vec![];
         'case: for i in 0..case.rays.len() {
             let Some(r) = crate::stability::record(&host, &case, i) else {
                 continue;
             };
             for pt in &host.scene.patches {
-                icu.push(IcuJob { ray: r, patch: *pt });
-                k += 1;
-                if k >= per_case {
+                jobs.push(IcuJob { ray: r, patch: *pt });
+                if jobs.len() >= per_case {
                     break 'case;
                 }
             }
         }
+        jobs.retain(|j| icu_fits(p, j));
+        counts.push((name.clone(), jobs.len() as u64));
+        icu.extend(jobs);
     }
+    counts
 }
 
 /// A random nonzero direction in the direction format, |d| about 1 (raw).
