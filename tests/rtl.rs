@@ -74,11 +74,13 @@ fn icu_mutant_error(from: &str, to: &str) -> String {
     let src: Vec<(&str, &str)> = m.iter().map(|(n, t)| (*n, t.as_str())).collect();
     let built = build(&p, Unit::Icu, false, &src).unwrap();
     let jobs = directed_and_random(&p, 20_000, 5, true);
-    replay_icu(&p, &built.binary, &jobs, Pressure::FULL, None, &|_| {
+    let e = replay_icu(&p, &built.binary, &jobs, Pressure::FULL, None, &|_| {
         String::new()
     })
     .expect_err("a mutated RTL must differ")
-    .to_string()
+    .to_string();
+    eprintln!("{e}");
+    e
 }
 
 #[test]
@@ -246,4 +248,25 @@ fn the_side_by_side_waveform_shows_the_rtl_and_the_model_alike_stage_by_stage() 
             "{name} of the .gtkw is not in the FST"
         );
     }
+}
+
+/// Yosys synthesizes the committed RTL and its report is read: a narrower datapath costs
+/// fewer cells and flip-flops, and a second call is served from the cache unchanged.
+#[test]
+fn synthesis_reads_cells_flip_flops_and_depth_and_grows_with_the_width() {
+    use shellsim::rtl::cost::synth_cost;
+    let small = Params::new(&config(4)).unwrap();
+    let wider = Params::new(&config(6)).unwrap();
+    let a = synth_cost(&small, Unit::Icu, false).unwrap();
+    let b = synth_cost(&wider, Unit::Icu, false).unwrap();
+    assert!(
+        a.cells > 5_000 && a.flip_flops > 300 && a.depth > 20,
+        "{a:?}"
+    );
+    assert!(
+        b.cells > a.cells && b.flip_flops > a.flip_flops,
+        "{a:?} {b:?}"
+    );
+    assert_eq!(a.luts, None);
+    assert_eq!(synth_cost(&small, Unit::Icu, false).unwrap(), a);
 }

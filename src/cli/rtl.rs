@@ -43,6 +43,9 @@ pub struct CostArgs {
     /// Write the table (markdown) and the fit of cells to the bits proxy here.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Write the table as CSV (hw/rtl/cost.csv is the one `size` and `explore` read).
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
 }
 
 /// Runs `shellsim rtl cost`.
@@ -100,6 +103,9 @@ fn run_cost(a: &CostArgs) -> Result<()> {
     crate::output::out!("{md}");
     if let Some(o) = &a.out {
         crate::output::write_atomic(o, md.as_bytes())?;
+    }
+    if let Some(c) = &a.csv {
+        crate::output::write_atomic(c, crate::rtl::cost::csv(&rows).as_bytes())?;
     }
     Ok(())
 }

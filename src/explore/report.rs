@@ -33,7 +33,7 @@ fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
 }
 
 /// The header of points.csv.
-pub const POINTS_HEADER: &str = "index,scene,source,level,rays,directions,seed,knobs,frac_bits,t_frac_bits,coord_int_bits,t_int_bits,cell,shell_radius,clusters,ctus_per_cluster,ray_buffer,patch_buffer,request_queue,balance,work_item_jobs,ff_err_max,ff_err_rms,sampling_err,err_over_sampling,mismatches_vs_float,mismatches_vs_fixed,cycles,pipeline_efficiency,bound_cycles,binds,multiplier_bits,adder_bits,sram_bits,memory_words,total_bits";
+pub const POINTS_HEADER: &str = "index,scene,source,level,rays,directions,seed,knobs,frac_bits,t_frac_bits,coord_int_bits,t_int_bits,cell,shell_radius,clusters,ctus_per_cluster,ray_buffer,patch_buffer,request_queue,balance,work_item_jobs,ff_err_max,ff_err_rms,sampling_err,err_over_sampling,mismatches_vs_float,mismatches_vs_fixed,cycles,pipeline_efficiency,bound_cycles,binds,multiplier_bits,adder_bits,sram_bits,memory_words,total_bits,icu_cells,icu_cells_source,datapath_cells";
 
 /// One row of points.csv.
 fn point_row(p: &PointResult) -> String {
@@ -75,6 +75,15 @@ fn point_row(p: &PointResult) -> String {
         opt(c.map(|c| c.sram_bits)),
         opt(c.map(|c| c.memory_words)),
         opt(c.map(|c| c.total_bits)),
+        opt(c.map(|c| c.icu_cells)),
+        opt(c.map(|c| {
+            if c.icu_cells_synthesized {
+                "yosys"
+            } else {
+                "fit"
+            }
+        })),
+        opt(c.map(|c| c.datapath_cells)),
     ]
     .join(",")
 }
@@ -121,6 +130,8 @@ struct PointsJson<'a> {
 enum Against {
     Cycles,
     Cost,
+    /// The ICUs' synthesized cells (size/synth.rs): the cost front on measured hardware.
+    Cells,
     Wall,
 }
 
@@ -129,6 +140,7 @@ impl Against {
         match self {
             Against::Cycles => "cycles",
             Against::Cost => "cost",
+            Against::Cells => "cells",
             Against::Wall => "wall",
         }
     }
@@ -137,6 +149,7 @@ impl Against {
         match self {
             Against::Cycles => "machine cycles",
             Against::Cost => "hardware cost (datapath + SRAM bits)",
+            Against::Cells => "synthesized ICU cells, all clusters (Yosys, hw/rtl/cost.csv)",
             Against::Wall => "simulator wall time (s)",
         }
     }
@@ -145,6 +158,7 @@ impl Against {
         match self {
             Against::Cycles => f.point.cycles.map(|c| c as f64),
             Against::Cost => f.point.cost.map(|c| c.total_bits as f64),
+            Against::Cells => f.point.cost.map(|c| c.datapath_cells as f64),
             Against::Wall => Some(f.host.wall_s),
         }
     }
@@ -389,7 +403,12 @@ pub fn write_all(dir: &Path, sf: &SpecFile, files: &[PointFile], whole: bool) ->
                 .copied()
                 .unwrap_or(0)
         );
-        for a in [Against::Cycles, Against::Cost, Against::Wall] {
+        for a in [
+            Against::Cycles,
+            Against::Cost,
+            Against::Cells,
+            Against::Wall,
+        ] {
             let (with, fr) = group_front(&g, a);
             if with.is_empty() {
                 continue;

@@ -221,11 +221,14 @@ fn mismatch(line: &str, p: &Params, unit: Unit, jobs_desc: &dyn Fn(u32) -> Strin
                 None => "the bits differ".into(),
             };
             return Error::Check(format!(
-                "co-simulation of the {}: stage {k} `{}` (Rust: {}) differs at vector {tag} ({}), cycle {}: {what}",
+                "co-simulation of the {}: stage {k} `{}` (Rust: {}) differs at vector {tag}{}, cycle {}: {what} (bits as unsigned)",
                 unit.name(),
                 st.name,
                 st.rust,
-                jobs_desc(tag),
+                Some(jobs_desc(tag))
+                    .filter(|d| !d.is_empty())
+                    .map(|d| format!(" ({d})"))
+                    .unwrap_or_default(),
                 kv("cycle").unwrap_or("?")
             ));
         }

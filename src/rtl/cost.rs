@@ -13,6 +13,10 @@ use std::process::Command;
 pub struct SynthCost {
     pub unit: String,
     pub frac_bits: u32,
+    pub coord_int_bits: u32,
+    pub t_frac_bits: u32,
+    pub t_int_bits: u32,
+    pub divider_bits_per_stage: u32,
     /// Generic gates and flip-flops (`synth; stat`).
     pub cells: u64,
     pub flip_flops: u64,
@@ -90,7 +94,7 @@ pub fn synth_cost(p: &Params, unit: Unit, fpga: bool) -> Result<SynthCost> {
         .find(|(n, _)| *n == format!("{}.sv", unit.module()))
         .map(|(_, t)| *t)
         .expect("every unit has a source");
-    let key = super::hash_of(&[&pkg, src, if fpga { "ecp5" } else { "" }, "cost 1"]);
+    let key = super::hash_of(&[&pkg, src, if fpga { "ecp5" } else { "" }, "cost 2"]);
     let cache = super::cache_dir().join(format!("cost-{}-{key}.json", unit.name()));
     if let Some(c) = std::fs::read_to_string(&cache)
         .ok()
@@ -135,6 +139,10 @@ pub fn synth_cost(p: &Params, unit: Unit, fpga: bool) -> Result<SynthCost> {
     let c = SynthCost {
         unit: unit.name().into(),
         frac_bits: p.f.coord.frac_bits,
+        coord_int_bits: p.f.coord.int_bits,
+        t_frac_bits: p.f.t.frac_bits,
+        t_int_bits: p.f.t.int_bits,
+        divider_bits_per_stage: p.div.bits_per_stage,
         cells,
         flip_flops: count_cells(&stat, &["$_DFF", "$_SDFF", "$_DFFE", "$_SDFFE", "$_SDFFCE"]),
         depth,
@@ -146,6 +154,34 @@ pub fn synth_cost(p: &Params, unit: Unit, fpga: bool) -> Result<SynthCost> {
     let text = serde_json::to_string_pretty(&c).expect("serializable");
     crate::output::write_atomic(&cache, text.as_bytes())?;
     Ok(c)
+}
+
+/// The table `size` reads (hw/rtl/cost.csv, src/size/synth.rs): one CSV line per row.
+pub fn csv(rows: &[SynthCost]) -> String {
+    let mut s = String::from("unit,frac_bits,coord_int_bits,t_frac_bits,t_int_bits,divider_bits_per_stage,cells,flip_flops,depth,luts,multipliers,bits_proxy\n");
+    let opt = |x: Option<u64>| x.map_or(String::new(), |v| v.to_string());
+    for r in rows {
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            r.unit,
+            r.frac_bits,
+            r.coord_int_bits,
+            r.t_frac_bits,
+            r.t_int_bits,
+            r.divider_bits_per_stage,
+            r.cells,
+            r.flip_flops,
+            r.depth,
+            opt(r.luts),
+            opt(r.multipliers),
+            if r.unit == "icu" {
+                r.bits_proxy.to_string()
+            } else {
+                String::new()
+            }
+        ));
+    }
+    s
 }
 
 /// The least-squares line cells ≈ a + b · proxy over `rows`, and its correlation r.

@@ -20,6 +20,8 @@
 //! The chosen machine is run at the end: the error, cycles and mismatches the report states
 //! are measured, not predicted.
 
+pub mod synth;
+
 use crate::config;
 use crate::error::{Error, Result};
 use crate::fixed::records::HostFixed;
@@ -138,6 +140,14 @@ pub struct Cost {
     pub memory_words: u64,
     /// Datapath (multiplier + adder bits, all ICUs) plus SRAM bits.
     pub total_bits: u64,
+    /// One ICU's Yosys cells ([`synth::icu_cells`]), and whether synthesized (else fitted).
+    #[serde(default)]
+    pub icu_cells: u64,
+    #[serde(default)]
+    pub icu_cells_synthesized: bool,
+    /// All ICUs' cells.
+    #[serde(default)]
+    pub datapath_cells: u64,
 }
 
 /// A run of a machine: what it measured.
@@ -303,12 +313,20 @@ pub fn cost_on(cfg: &MachineConfig, scene: &Scene, file: &Path, host: &HostFixed
     let memory_words =
         scene.patches.len() as u64 * sizes.patch_words as u64 + host.scene.cells.words(f.word_bits);
     let datapath = clusters * (dp.multiplier_bits + dp.adder_bits);
+    let (icu_cells, icu_cells_synthesized) = synth::icu_cells(
+        &cfg.datapath,
+        m.divider_bits_per_stage,
+        dp.multiplier_bits + dp.adder_bits,
+    );
     Ok(Cost {
         multiplier_bits: dp.multiplier_bits,
         adder_bits: dp.adder_bits,
         sram_bits,
         memory_words,
         total_bits: datapath + sram_bits,
+        icu_cells,
+        icu_cells_synthesized,
+        datapath_cells: clusters * icu_cells,
     })
 }
 
@@ -752,19 +770,25 @@ pub fn markdown(r: &SizeReport) -> String {
     }
     let row = |name: &str, m: &Measured| {
         format!(
-            "| {name} | {:.3e} | {:.3e} | {:.3e} | {} | {} | {} | {} | {} | {} |\n",
+            "| {name} | {:.3e} | {:.3e} | {:.3e} | {} | {} | {} | {}{} | {} | {} | {} |\n",
             m.ff_err_max,
             m.ff_err_vs_float,
             m.ff_err_vs_reference,
             m.cycles,
             m.mismatches_vs_fixed,
             m.cost.multiplier_bits + m.cost.adder_bits,
+            m.cost.icu_cells,
+            if m.cost.icu_cells_synthesized {
+                ""
+            } else {
+                " (fit)"
+            },
             m.cost.sram_bits,
             m.cost.total_bits,
             m.cost.memory_words
         )
     };
-    s.push_str("\n## Measured (the chosen machine run, against the base configuration)\n\n| machine | error (target's measure) | vs float | vs reference | cycles | mismatches | datapath bits / ICU | SRAM bits | total bits | memory words |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
+    s.push_str("\n## Measured (the chosen machine run, against the base configuration)\n\n| machine | error (target's measure) | vs float | vs reference | cycles | mismatches | datapath bits / ICU | Yosys cells / ICU | SRAM bits | total bits | memory words |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n");
     s.push_str(&row("sized", &r.measured));
     s.push_str(&row("base", &r.base));
     let m = &r.machine.machine;
