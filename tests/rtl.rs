@@ -270,3 +270,37 @@ fn synthesis_reads_cells_flip_flops_and_depth_and_grows_with_the_width() {
     assert_eq!(a.luts, None);
     assert_eq!(synth_cost(&small, Unit::Icu, false).unwrap(), a);
 }
+
+/// The CLI's messages: bad values and a missing Verilator are exit 2 with a message that says
+/// what to do; `rtl` without `--out` names it.
+#[test]
+fn bad_values_and_a_missing_verilator_are_exit_2_with_a_message() {
+    let run = |args: &[&str], path: Option<&str>| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_shellsim"));
+        c.args(args);
+        if let Some(p) = path {
+            c.env("PATH", p);
+        }
+        let o = c.output().unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).to_string(),
+        )
+    };
+    let (code, e) = run(&["cosim", "--vectors", "0"], None);
+    assert_eq!(code, Some(2), "{e}");
+    assert!(e.contains("--vectors 0"), "{e}");
+    let (code, e) = run(&["cosim", "--offer", "1.5"], None);
+    assert_eq!(code, Some(2), "{e}");
+    assert!(e.contains("--offer 1.5 is not in (0, 1]"), "{e}");
+    let (code, e) = run(&["rtl"], None);
+    assert_eq!(code, Some(2), "{e}");
+    assert!(e.contains("--out DIR"), "{e}");
+    let empty = tempfile::tempdir().unwrap();
+    let (code, e) = run(&["cosim", "--vectors", "1000"], empty.path().to_str());
+    assert_eq!(code, Some(2), "{e}");
+    assert!(e.contains("apt-get install verilator"), "{e}");
+    let (code, e) = run(&["rtl", "cost"], empty.path().to_str());
+    assert_eq!(code, Some(2), "{e}");
+    assert!(e.contains("apt-get install yosys"), "{e}");
+}
