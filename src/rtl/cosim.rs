@@ -598,10 +598,10 @@ pub type Timings = Vec<(String, f64, Timing)>;
 /// Jobs in one harness run at most (memory stays bounded at any vector count).
 const CHUNK: usize = 1 << 20;
 
-fn describe_icu<'a>(what: &str, base: u32, jobs: &'a [IcuJob]) -> impl Fn(u32) -> String + 'a {
+fn describe_icu<'a>(what: &str, jobs: &'a [IcuJob]) -> impl Fn(u32) -> String + 'a {
     let what = what.to_string();
     move |tag: u32| {
-        let Some(j) = jobs.get((tag - base.min(tag)) as usize) else {
+        let Some(j) = jobs.get(tag as usize) else {
             return what.clone();
         };
         format!(
@@ -643,7 +643,7 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Timin
         let host =
             crate::fixed::records::HostFixed::new(scene, Path::new(name), o.cfg.datapath, cell)?;
         let before = real.len();
-        scene_jobs(scene, name, &host, 16, 64, &mut real, &mut walks);
+        scene_jobs(scene, &host, 16, 64, &mut real, &mut walks);
         real.truncate(before + (n * 3 / 10 / o.scenes.len().max(1)).max(1));
     }
     keep_fitting_icu(&p, &mut real);
@@ -687,7 +687,7 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Timin
             &jobs,
             Pressure::FULL,
             if first { o.fst.as_deref() } else { None },
-            &describe_icu(label, 0, &jobs),
+            &describe_icu(label, &jobs),
         )?;
         full_seconds += t.seconds;
         done += jobs.len();
@@ -712,7 +712,7 @@ pub fn run(o: &Options, progress: &mut dyn FnMut(&str)) -> Result<(Report, Timin
         &bp,
         o.pressure,
         None,
-        &describe_icu("back-pressure vector", 0, &bp),
+        &describe_icu("back-pressure vector", &bp),
     )?;
     timings.push(("icu back-pressure".to_string(), 0.0, t));
     runs.push(r);

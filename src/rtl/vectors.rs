@@ -224,7 +224,6 @@ pub struct Sources {
 /// largest value).
 pub fn scene_jobs(
     scene: &Scene,
-    name: &str,
     host: &HostFixed,
     sources: usize,
     rays: usize,
@@ -234,7 +233,6 @@ pub fn scene_jobs(
     let fs = &host.scene;
     let n = scene.patches.len();
     let every = n.div_ceil(sources.max(1)).max(1);
-    let _ = name;
     for src in (0..n).step_by(every) {
         let set = hemisphere_rays(
             &scene.patches[src],
@@ -334,6 +332,12 @@ fn direction(rng: &mut Pcg64, p: &Params) -> [i64; 3] {
             }
         }
     }
+}
+
+/// The planar quad c ∓ e1 ∓ e2 around `c` (its vertices in order).
+fn parallelogram(c: [i64; 3], e1: [i64; 3], e2: [i64; 3]) -> [[i64; 3]; 4] {
+    [(-1, -1), (1, -1), (1, 1), (-1, 1)]
+        .map(|(a, b)| [0, 1, 2].map(|k| c[k] + a * e1[k] + b * e2[k]))
 }
 
 /// Vectors aimed at the datapath's branches and seeded random ones: `n` jobs.
@@ -440,28 +444,7 @@ pub fn directed_and_random(p: &Params, n: usize, seed: u64, directed: bool) -> V
                 let e1 = pick(&mut rng, size);
                 let e2 = pick(&mut rng, size);
                 let c = at(0.0, [0; 3]);
-                let v = [
-                    [
-                        c[0] - e1[0] - e2[0],
-                        c[1] - e1[1] - e2[1],
-                        c[2] - e1[2] - e2[2],
-                    ],
-                    [
-                        c[0] + e1[0] - e2[0],
-                        c[1] + e1[1] - e2[1],
-                        c[2] + e1[2] - e2[2],
-                    ],
-                    [
-                        c[0] + e1[0] + e2[0],
-                        c[1] + e1[1] + e2[1],
-                        c[2] + e1[2] + e2[2],
-                    ],
-                    [
-                        c[0] - e1[0] + e2[0],
-                        c[1] - e1[1] + e2[1],
-                        c[2] - e1[2] + e2[2],
-                    ],
-                ];
+                let v = parallelogram(c, e1, e2);
                 IcuJob {
                     ray: RayRecord::new(id, o, d, f),
                     patch: pt(v, quad),
@@ -482,28 +465,7 @@ pub fn directed_and_random(p: &Params, n: usize, seed: u64, directed: bool) -> V
                 let sz = rng.gen_range(1..=size);
                 let e1 = pick(&mut rng, sz);
                 let e2 = pick(&mut rng, sz);
-                let v = [
-                    [
-                        c[0] - e1[0] - e2[0],
-                        c[1] - e1[1] - e2[1],
-                        c[2] - e1[2] - e2[2],
-                    ],
-                    [
-                        c[0] + e1[0] - e2[0],
-                        c[1] + e1[1] - e2[1],
-                        c[2] + e1[2] - e2[2],
-                    ],
-                    [
-                        c[0] + e1[0] + e2[0],
-                        c[1] + e1[1] + e2[1],
-                        c[2] + e1[2] + e2[2],
-                    ],
-                    [
-                        c[0] - e1[0] + e2[0],
-                        c[1] - e1[1] + e2[1],
-                        c[2] - e1[2] + e2[2],
-                    ],
-                ];
+                let v = parallelogram(c, e1, e2);
                 IcuJob {
                     ray: RayRecord::new(id, o, d, f),
                     patch: pt(v, quad),
