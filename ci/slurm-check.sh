@@ -7,6 +7,10 @@
 #
 #   ci/slurm-check.sh           the sweep check (needs target/release/shellsim)
 #   ci/slurm-check.sh --smoke   only the cluster: a 3-task array job plus an afterok job
+#   ci/slurm-check.sh --study FILE
+#                               a study on the cluster: the array job FILE (an .sbatch run
+#                               from the repository) and, afterok, `bash FILE merge`
+#                               (e.g. ci/corpus-study.sbatch; raise SLURM_CHECK_TIMEOUT)
 #
 # Environment: CARGO_TARGET_DIR (where the release binary is), SLURM_CHECK_TIMEOUT (seconds
 # to wait for the jobs, default 300), SLURM_CHECK_PORT (slurmctld's port, default 16817;
@@ -18,7 +22,12 @@ mode=sweep
 case "${1:-}" in
   "") ;;
   --smoke) mode=smoke ;;
-  *) echo "usage: $0 [--smoke]" >&2; exit 2 ;;
+  --study)
+    mode=study
+    study=${2:?usage: $0 --study FILE}
+    [ -f "$study" ] || { echo "slurm-check: $study: no such file" >&2; exit 2; }
+    ;;
+  *) echo "usage: $0 [--smoke | --study FILE]" >&2; exit 2 ;;
 esac
 # The daemons run as root (SlurmUser=root): when not root, run the whole script under sudo.
 if [ "$(id -u)" -ne 0 ]; then
@@ -218,6 +227,17 @@ EOF
   wait_jobs
   printf 'task %d of 3\n' 0 1 2 | cmp - joined || fail "the join job's output is wrong"
   say "smoke passed: array job $array and its afterok job, $(($(date +%s) - start)) s in all"
+  exit 0
+fi
+
+if [ "$mode" = study ]; then
+  # 4b. A study's array job from the repository, then its merge as an afterok job.
+  array=$(sbatch --parsable --chdir="$repo" "$study") || fail "sbatch of $study failed"
+  sbatch --parsable --chdir="$repo" --dependency="afterok:$array" --output="$tmp/log/merge.out" \
+    --wrap "bash $study merge" >/dev/null || fail "sbatch of the merge job failed"
+  wait_jobs
+  cat "$tmp/log/merge.out"
+  say "study $study done: array job $array and its merge, $(($(date +%s) - start)) s in all"
   exit 0
 fi
 

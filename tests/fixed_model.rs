@@ -12,6 +12,7 @@ use shellsim::fixed::check::check;
 use shellsim::fixed::records::HostFixed;
 use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
 use shellsim::reference::tracer::{Ray, Tracer};
+use shellsim_hw::config::Fault;
 use shellsim_hw::{DatapathConfig, Exceptions};
 use std::path::Path;
 
@@ -255,32 +256,57 @@ mod coplanar_neighbour {
 /// same study, with the large corpus).
 #[test]
 fn the_corpus_is_watertight_in_fixed_point() {
+    let (bad, _) = corpus_failures(&[8, 10, 12, 14, 16], 25_000, Fault::None);
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}
+
+/// The mutation check of the datapath itself: the corpus test above, run with rounding
+/// point A broken on one vertex lane (`Fault::ShearLaneTruncates`, a lane of the shear
+/// built with truncation), must fail — by leaks, not only by the verdict.
+#[test]
+fn a_shear_lane_that_truncates_fails_the_corpus_test() {
+    let (bad, leaked) = corpus_failures(&[12], 5_000, Fault::ShearLaneTruncates);
+    assert!(
+        leaked > 0,
+        "the broken rounding went unnoticed:\n{}",
+        bad.join("\n")
+    );
+}
+
+/// The corpus test at fractional widths `widths`, `rays` random rays from each of four
+/// sources per scene, with `fault` injected into the datapath: one line per scene and width
+/// that leaked, left a mismatch unexplained or (from 12 bits) failed the verdict, and the
+/// rays leaked in all.
+fn corpus_failures(widths: &[u32], rays: usize, fault: Fault) -> (Vec<String>, u64) {
     use shellsim::scene::gen::corpus::{corpus, CorpusSize};
     let scenes = corpus(CorpusSize::Small);
     let cases: Vec<(usize, u32)> = (0..scenes.len())
-        .flat_map(|s| [8u32, 10, 12, 14, 16].map(move |f| (s, f)))
+        .flat_map(|s| widths.iter().map(move |&f| (s, f)))
         .collect();
-    let bad: Vec<String> = cases
+    let found: Vec<(Option<String>, u64)> = cases
         .par_iter()
-        .filter_map(|&(s, f)| {
+        .map(|&(s, f)| {
             let scene = &scenes[s];
             let cell = scene.bounds.scale() / 20.0;
             let tracer = Tracer::new(scene, cell).unwrap();
             let mut cfg = default_config();
             cfg.frac_bits = f;
             cfg.t_frac_bits = f;
-            let host = HostFixed::new(scene, Path::new(&scene.name), cfg, cell).unwrap();
+            let mut host = HostFixed::new(scene, Path::new(&scene.name), cfg, cell).unwrap();
+            host.scene.formats.fault = fault;
             let n = scene.patches.len();
             let mut lost = Vec::new();
+            let mut leaked = 0;
             for src in [0, n / 3, n / 2, n - 1] {
                 let set = hemisphere_rays(
                     &scene.patches[src],
-                    25_000,
+                    rays,
                     Directions::Random,
                     Origins::Patch,
                     src as u64,
                 );
                 let r = check(&tracer, &host, &set, src as u32, Default::default());
+                leaked += r.leaked as u64;
                 if r.leaked > 0 || r.escaped_float > 0 || r.unexplained_mismatches > 0 {
                     lost.push(format!(
                         "source {src}: {} leaked ({} crowded), float escaped {}, {} unexplained, first leak {:?}",
@@ -297,10 +323,13 @@ fn the_corpus_is_watertight_in_fixed_point() {
                     }
                 }
             }
-            (!lost.is_empty()).then(|| format!("{} at F = {f}: {}", scene.name, lost.join("; ")))
+            let line =
+                (!lost.is_empty()).then(|| format!("{} at F = {f}: {}", scene.name, lost.join("; ")));
+            (line, leaked)
         })
         .collect();
-    assert!(bad.is_empty(), "{}", bad.join("\n"));
+    let leaked = found.iter().map(|f| f.1).sum();
+    (found.into_iter().filter_map(|f| f.0).collect(), leaked)
 }
 
 /// The machine on the corpus: one source of each small-corpus scene through the cycle

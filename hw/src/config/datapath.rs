@@ -49,6 +49,31 @@ pub struct Formats {
     pub t: Format,
     /// Memory word width.
     pub word_bits: u32,
+    /// A deliberate fault, for mutation checks only ([`Fault::None`] from every
+    /// configuration; never read from a file, never written out when absent).
+    #[serde(skip_serializing_if = "Fault::is_none")]
+    pub fault: Fault,
+}
+
+/// A deliberate datapath fault: what a verification suite must catch. A check that still
+/// passes with one injected cannot be trusted to catch the real thing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum Fault {
+    /// The datapath as designed.
+    #[default]
+    None,
+    /// Rounding point A (the shear) truncates instead of rounding on the fourth vertex
+    /// lane only — as one lane of a hardware shear built with a different rounding. A
+    /// vertex shared by two patches in different lanes then lands on two lattice points,
+    /// and the surface cracks.
+    ShearLaneTruncates,
+}
+
+impl Fault {
+    /// True for the datapath as designed.
+    pub fn is_none(&self) -> bool {
+        *self == Fault::None
+    }
 }
 
 impl DatapathConfig {
@@ -141,6 +166,7 @@ impl DatapathConfig {
             t_num,
             t,
             word_bits: self.word_bits,
+            fault: Fault::None,
         })
     }
 }

@@ -5,7 +5,7 @@
 pub mod datapath;
 pub mod machine;
 
-pub use datapath::{DatapathConfig, Formats, HardwareCost};
+pub use datapath::{DatapathConfig, Fault, Formats, HardwareCost};
 pub use machine::{ArbiterPolicy, BalanceTable, JobSource, Length, MachineTable, VictimPolicy};
 
 use serde::{Deserialize, Serialize};

@@ -20,7 +20,7 @@
 //! Stage costs (cycles each stands for) are set by the ICU's configuration (a later issue).
 //! The divider is a radix-2 restoring divider: one quotient bit per cycle, pipelined.
 
-use crate::config::Formats;
+use crate::config::{Fault, Formats};
 use crate::datapath::format::{round_div, round_shift};
 use crate::datapath::record::{PatchRecord, RayRecord};
 
@@ -132,6 +132,14 @@ pub fn shear(r: &RayRecord, t: &Translated, f: &Formats) -> RaySpace {
         s.x[i] = p[kx] - round_shift(r.sx as i128 * pz, fs) as i64;
         s.y[i] = p[ky] - round_shift(r.sy as i128 * pz, fs) as i64;
         s.z[i] = round_shift(r.sz as i128 * pz, fs) as i64;
+    }
+    if f.fault == Fault::ShearLaneTruncates && t.n == 4 {
+        // The mutant: lane 3 truncates (rounds towards −∞) instead of rounding half up.
+        let p = t.p[3];
+        let pz = p[kz] as i128;
+        s.x[3] = p[kx] - ((r.sx as i128 * pz) >> fs) as i64;
+        s.y[3] = p[ky] - ((r.sy as i128 * pz) >> fs) as i64;
+        s.z[3] = ((r.sz as i128 * pz) >> fs) as i64;
     }
     s
 }
