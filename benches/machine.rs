@@ -20,7 +20,7 @@ fn scene2() -> (PathBuf, Scene, MachineConfig, MachineConfig) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/scene2.json");
     let scene = Scene::load_json(&path).expect("scenes/scene2.json");
     let cfg = shellsim::config::machine(None).unwrap();
-    let hw = shellsim::config::in_hardware_units(&cfg, scene.bounds.scale()).unwrap();
+    let hw = shellsim::config::in_hardware_units(&cfg, scene.size()).unwrap();
     (path, scene, cfg, hw)
 }
 

@@ -136,17 +136,55 @@ pub fn with_frac_bits(mut cfg: DatapathConfig, bits: u32) -> Result<DatapathConf
     Ok(cfg)
 }
 
-/// Grid cells along the scene's largest extent when `cell_size` is `auto` (Table 12.1: the
-/// unit cube in cells of 0.05).
+/// The fewest grid cells along the scene's largest extent when `cell_size` is `auto`
+/// (Table 12.1: the unit cube in cells of 0.05): the paper's scenes keep the paper's grid.
 pub const AUTO_CELLS_PER_SCALE: f64 = 20.0;
+
+/// The most grid cells along the scene's largest extent when `cell_size` is `auto` (a
+/// 512³ grid is 134 M cells; a finer one is asked for with `--cell`).
+pub const AUTO_CELLS_MAX: f64 = 512.0;
+
+/// What the `auto` lengths are derived from: the scene's largest extent and its patch
+/// count ([`crate::scene::Scene::size`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SceneSize {
+    /// The largest extent of the scene's bounds.
+    pub scale: f64,
+    /// Patches.
+    pub patches: usize,
+}
+
+impl SceneSize {
+    /// A scene of largest extent `scale` whose grid is the paper's (no patches counted).
+    pub fn of_scale(scale: f64) -> SceneSize {
+        SceneSize { scale, patches: 0 }
+    }
+
+    /// Grid cells along the largest extent under the `auto` rule: about
+    /// [`AUTO_CELLS_PER_CBRT_PATCH`]` · ∛N` for N patches — a grid of O(N) cells, the
+    /// optimum for well-behaved models (Cleary & Wyvill 1988; Ize, Shirley & Parker, "Grid
+    /// creation strategies for efficient ray tracing", RT 2007; pbrt's GridAccel takes
+    /// 3∛N) — never coarser than the paper's 20 nor finer than 512. The constant sits in
+    /// this tracer's measured optimum on subdivided Cornell rooms of 5k–100k patches (flat
+    /// between 1.3∛N and 2∛N; BENCHMARKS.md) and keeps every scene of up to 1,953 patches
+    /// (all committed scenes but stress-dense) on the paper's grid.
+    pub fn auto_cells(&self) -> f64 {
+        let r = (AUTO_CELLS_PER_CBRT_PATCH * (self.patches as f64).cbrt()).ceil();
+        r.clamp(AUTO_CELLS_PER_SCALE, AUTO_CELLS_MAX)
+    }
+}
+
+/// Cells along the largest extent per cube root of the patch count under the `auto` rule.
+pub const AUTO_CELLS_PER_CBRT_PATCH: f64 = 1.6;
 
 /// The shell radius over the scene's scale when `shell_radius` is `auto`: Table 12.1's
 /// 0.289 for the unit cube (its diagonal over 6, √3/6 = 0.2887, to the paper's three digits).
 pub const AUTO_SHELL_PER_SCALE: f64 = 0.289;
 
-/// The cell size of `cell_size` for a scene of `scale`: the value given, or the rule's.
-pub fn cell_size(cell: Length, scale: f64) -> f64 {
-    cell.or(scale / AUTO_CELLS_PER_SCALE)
+/// The cell size of `cell_size` for a scene of `size`: the value given, or the rule's
+/// ([`SceneSize::auto_cells`]).
+pub fn cell_size(cell: Length, size: SceneSize) -> f64 {
+    cell.or(size.scale / size.auto_cells())
 }
 
 /// The shell radius of `shell_radius` for a scene of `scale`.
@@ -154,12 +192,13 @@ pub fn shell_radius(radius: Length, scale: f64) -> f64 {
     radius.or(AUTO_SHELL_PER_SCALE * scale)
 }
 
-/// `cfg` with every `auto` length derived for a scene of `scale` (its largest extent), in
-/// scene units. It is validated as the hardware will see it ([`in_hardware_units`]): the
-/// shell radius over the scale must fit the t format; an error names the key.
-pub fn resolve(cfg: &MachineConfig, scale: f64) -> Result<MachineConfig> {
+/// `cfg` with every `auto` length derived for a scene of `size`, in scene units. It is
+/// validated as the hardware will see it ([`in_hardware_units`]): the shell radius over the
+/// scale must fit the t format; an error names the key.
+pub fn resolve(cfg: &MachineConfig, size: SceneSize) -> Result<MachineConfig> {
+    let scale = size.scale;
     let mut r = *cfg;
-    r.machine.cell_size = Length::Value(cell_size(cfg.machine.cell_size, scale));
+    r.machine.cell_size = Length::Value(cell_size(cfg.machine.cell_size, size));
     r.machine.shell_radius = Length::Value(shell_radius(cfg.machine.shell_radius, scale));
     scaled(&r, scale).validate().map_err(|e| {
         Error::input(
@@ -177,8 +216,8 @@ pub fn resolve(cfg: &MachineConfig, scale: f64) -> Result<MachineConfig> {
 /// A resolved configuration in the hardware's units: lengths over the scene's `scale`
 /// (the hardware's coordinates are the scene's, relative to the grid origin, over the
 /// scale). On the unit cube (scale 1) it is the resolved `cfg` itself.
-pub fn in_hardware_units(cfg: &MachineConfig, scale: f64) -> Result<MachineConfig> {
-    Ok(scaled(&resolve(cfg, scale)?, scale))
+pub fn in_hardware_units(cfg: &MachineConfig, size: SceneSize) -> Result<MachineConfig> {
+    Ok(scaled(&resolve(cfg, size)?, size.scale))
 }
 
 /// `r` (resolved) with its lengths over `scale`.

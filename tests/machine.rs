@@ -606,7 +606,14 @@ fn stages_are_the_icus_own(shifts: bool) {
     let scene = common::load("scene1.json");
     let file = common::scene_path("scene1.json");
     let prep = shellsim::machine::run::prepare(&scene, &file, &c, &spec()).unwrap();
-    let hw = shellsim::config::in_hardware_units(&c, prep.host.scale).unwrap();
+    let hw = shellsim::config::in_hardware_units(
+        &c,
+        shellsim::config::SceneSize {
+            scale: prep.host.scale,
+            patches: prep.host.scene.patches.len(),
+        },
+    )
+    .unwrap();
     let mut m =
         shellsim_hw::machine::Machine::new(hw, &prep.host.scene, &prep.records, &prep.sectors, 0);
     let mut p = StageProbe {

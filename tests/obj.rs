@@ -53,10 +53,7 @@ fn text(b: &[u8]) -> String {
 }
 
 fn cell(scene: &Scene) -> f64 {
-    shellsim::config::cell_size(
-        shellsim::config::built_in().machine.cell_size,
-        scene.bounds.scale(),
-    )
+    shellsim::config::cell_size(shellsim::config::built_in().machine.cell_size, scene.size())
 }
 
 /// The paper's 969 ring rays from `source`, seed 1 (the commands' default).

@@ -107,7 +107,7 @@ mod fixed_equals_machine {
 /// (its cell size resolved for the scene).
 fn models(scene: &Scene, path: &Path) -> (HostFixed, Tracer) {
     let cfg = shellsim::config::built_in();
-    let cell = shellsim::config::cell_size(cfg.machine.cell_size, scene.bounds.scale());
+    let cell = shellsim::config::cell_size(cfg.machine.cell_size, scene.size());
     (
         HostFixed::new(scene, path, cfg.datapath, cell).unwrap(),
         Tracer::new(scene, cell).unwrap(),
@@ -399,10 +399,7 @@ fn png_shows_the_emitter_brightest(file: &str) {
     let scene = common::load(file);
     let tracer = Tracer::new(
         &scene,
-        shellsim::config::cell_size(
-            shellsim::config::built_in().machine.cell_size,
-            scene.bounds.scale(),
-        ),
+        shellsim::config::cell_size(shellsim::config::built_in().machine.cell_size, scene.size()),
     )
     .unwrap();
     let hits = render::cast(&tracer, &Camera::default_for(&scene), 120, 90);

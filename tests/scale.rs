@@ -42,10 +42,8 @@ fn source(file: &str) -> u32 {
 /// Float reference: the same 2,000 Malley rays (drawn on each scene's own source patch)
 /// hit the same patches.
 fn float_hits(scene: &Scene, src: u32) -> Vec<Option<u32>> {
-    let cell = shellsim::config::cell_size(
-        shellsim::config::built_in().machine.cell_size,
-        scene.bounds.scale(),
-    );
+    let cell =
+        shellsim::config::cell_size(shellsim::config::built_in().machine.cell_size, scene.size());
     let tracer = Tracer::new(scene, cell).unwrap();
     let set = hemisphere_rays(
         &scene.patches[src as usize],
@@ -112,19 +110,33 @@ testcases! { same_after_scaling;
 
 #[test]
 fn the_resolved_lengths_scale_with_the_scene() {
+    use shellsim::config::SceneSize;
     let cfg = shellsim::config::built_in();
-    let r = shellsim::config::resolve(cfg, 555.0).unwrap();
+    let r = shellsim::config::resolve(cfg, SceneSize::of_scale(555.0)).unwrap();
     assert_eq!(r.machine.cell_size.value(), 555.0 / 20.0);
     assert_eq!(r.machine.shell_radius.value(), 0.289 * 555.0);
     // On the unit cube the rules give Table 12.1 exactly.
-    let u = shellsim::config::resolve(cfg, 1.0).unwrap();
+    let u = shellsim::config::resolve(cfg, SceneSize::of_scale(1.0)).unwrap();
     assert_eq!(u.machine.cell_size.value(), 0.05);
     assert_eq!(u.machine.shell_radius.value(), 0.289);
+    // Sized to the scene: about 1.6·∛N cells along the largest extent, 20 at least.
+    let big = SceneSize {
+        scale: 555.0,
+        patches: 100_800,
+    };
+    let r = shellsim::config::resolve(cfg, big).unwrap();
+    assert_eq!(r.machine.cell_size.value(), 555.0 / 75.0);
+    let small = SceneSize {
+        scale: 555.0,
+        patches: 1_953,
+    };
+    let r = shellsim::config::resolve(cfg, small).unwrap();
+    assert_eq!(r.machine.cell_size.value(), 555.0 / 20.0);
     // An explicit value wins.
     let mut c = *cfg;
     c.machine.cell_size = shellsim_hw::config::Length::Value(10.0);
     assert_eq!(
-        shellsim::config::resolve(&c, 555.0)
+        shellsim::config::resolve(&c, SceneSize::of_scale(555.0))
             .unwrap()
             .machine
             .cell_size
@@ -144,10 +156,8 @@ fn reference_form_factors(scene: &Scene) -> (Vec<f64>, usize) {
         directions: Directions::Rings,
         seed: 1,
     };
-    let cell = shellsim::config::cell_size(
-        shellsim::config::built_in().machine.cell_size,
-        scene.bounds.scale(),
-    );
+    let cell =
+        shellsim::config::cell_size(shellsim::config::built_in().machine.cell_size, scene.size());
     let r = run_scene(scene, Path::new("<placed>"), &spec, cell).unwrap();
     let mut ff = vec![0.0; scene.patches.len()];
     for f in &r.form_factors {
@@ -161,10 +171,8 @@ fn reference_form_factors(scene: &Scene) -> (Vec<f64>, usize) {
 fn fixed_hits(scene: &Scene) -> (Vec<Option<(u32, i64)>>, usize) {
     use shellsim::fixed::records::HostFixed;
     use shellsim_hw::Exceptions;
-    let cell = shellsim::config::cell_size(
-        shellsim::config::built_in().machine.cell_size,
-        scene.bounds.scale(),
-    );
+    let cell =
+        shellsim::config::cell_size(shellsim::config::built_in().machine.cell_size, scene.size());
     let host = HostFixed::new(
         scene,
         Path::new("<placed>"),

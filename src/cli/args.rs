@@ -72,6 +72,10 @@ pub struct MachineArgs {
     /// Machine configuration (TOML); default hw/configs/paper.toml (built in).
     #[arg(long)]
     pub hw: Option<PathBuf>,
+    /// Grid cell size in scene units, overriding the configuration's `machine.cell_size`
+    /// (default `auto`: sized to the scene, its largest extent / max(20, ⌈1.6·∛patches⌉)).
+    #[arg(long)]
+    pub cell: Option<f64>,
 }
 
 impl MachineArgs {
@@ -79,14 +83,35 @@ impl MachineArgs {
     pub fn source(&self) -> ConfigSource {
         ConfigSource::from_path(self.hw.as_deref())
     }
+
+    /// The configuration, with `--cell` applied.
+    pub fn load(&self) -> Result<MachineConfig> {
+        let mut cfg = config::load(&self.source())?;
+        if let Some(c) = self.cell {
+            cfg.machine.cell_size = cell_length(c)?;
+        }
+        Ok(cfg)
+    }
+}
+
+/// `--cell c` as a length: finite and positive.
+fn cell_length(c: f64) -> Result<shellsim_hw::config::Length> {
+    if !(c.is_finite() && c > 0.0) {
+        return Err(Error::Usage(format!(
+            "--cell {}: not a positive length",
+            crate::error::shown(&c.to_string())
+        )));
+    }
+    Ok(shellsim_hw::config::Length::Value(c))
 }
 
 /// Which datapath formats to use: the `[datapath]` of a machine configuration, validated
 /// as a whole the way `run` validates it.
 #[derive(clap::Args, Debug, Clone)]
 pub struct DatapathArgs {
-    #[command(flatten)]
-    pub machine: MachineArgs,
+    /// Machine configuration (TOML); default hw/configs/paper.toml (built in).
+    #[arg(long)]
+    pub hw: Option<PathBuf>,
     /// A named configuration, resolved when shellsim runs: hw/configs/NAME.toml under the
     /// current directory, else $SHELLSIM_CONFIG_DIR/NAME.toml, else a built-in one (paper,
     /// small).
@@ -102,7 +127,7 @@ impl DatapathArgs {
     pub fn source(&self) -> ConfigSource {
         match &self.format {
             Some(name) => ConfigSource::Named(name.clone()),
-            None => self.machine.source(),
+            None => ConfigSource::from_path(self.hw.as_deref()),
         }
     }
 
@@ -124,8 +149,8 @@ impl DatapathArgs {
 /// The grid's cell size, for the subcommands that build a grid without a machine.
 #[derive(clap::Args, Debug, Clone, Copy)]
 pub struct CellArg {
-    /// Grid cell size in scene units (default: the configuration's rule, the scene's
-    /// largest extent / 20 — 0.05 on the unit cube).
+    /// Grid cell size in scene units (default: sized to the scene, its largest extent /
+    /// max(20, ⌈1.6·∛patches⌉) — 0.05 on the unit cube of up to 1,953 patches).
     #[arg(long)]
     pub cell: Option<f64>,
 }
@@ -134,7 +159,7 @@ impl CellArg {
     /// The cell size for `scene`: the one given, or the built-in configuration's.
     pub fn for_scene(&self, scene: &Scene) -> f64 {
         self.cell.unwrap_or_else(|| {
-            config::cell_size(config::built_in().machine.cell_size, scene.bounds.scale())
+            config::cell_size(config::built_in().machine.cell_size, scene.size())
         })
     }
 }

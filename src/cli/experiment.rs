@@ -1,7 +1,6 @@
 //! `shellsim experiment efficiency|workitem|speedup`.
 
 use super::args::{MachineArgs, SceneSourceArgs};
-use crate::config;
 use crate::error::Result;
 use crate::experiment::outputs::{self, experiment, Which};
 use crate::experiment::Workload;
@@ -32,7 +31,7 @@ pub fn run(a: &ExperimentArgs) -> Result<()> {
         Output::file("--out", &a.out.join(format!("{stem}.csv"))),
         Output::file("--out", &a.out.join(format!("{stem}.svg"))),
     ])?;
-    let base = config::load(&a.machine.source())?;
+    let base = a.machine.load()?;
     let w = Workload {
         scene: &scene,
         file: a.input.path(),

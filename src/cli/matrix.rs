@@ -2,7 +2,6 @@
 //! JSON summary.
 
 use super::args::{MatrixRaysArgs, SceneFileArg};
-use crate::config;
 use crate::error::Result;
 use crate::output::{check_outputs, outln, Output};
 use crate::radiosity::matrix::{self, Model, Summary};
@@ -30,7 +29,7 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
         Output::file("--out", &a.out.with_extension("json")),
     ])?;
     let scene = a.scene.load()?;
-    let cfg = config::load(&a.rays.machine.source())?;
+    let cfg = a.rays.machine.load()?;
     let spec = a.rays.spec(a.model, scene.patches.len())?;
     let start = std::time::Instant::now();
     let m = matrix::compute(&scene, &a.scene.scene, &cfg, &spec, true)?;

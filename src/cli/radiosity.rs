@@ -2,7 +2,6 @@
 //! `--matrix`), write the per-patch CSV and a picture; `--compare A,B` compares two models.
 
 use super::args::{MatrixRaysArgs, SceneFileArg};
-use crate::config;
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, outln, Output};
 use crate::radiosity::job::{self, ImageSpec, JobSpec};
@@ -96,7 +95,7 @@ pub fn run(a: &RadiosityArgs) -> Result<()> {
         None => Camera::default_for(&scene),
     };
     let compare = a.compare.as_deref().map(parse_compare).transpose()?;
-    let cfg = config::load(&a.rays.machine.source())?;
+    let cfg = a.rays.machine.load()?;
     let spec = a.rays.spec(a.model, scene.patches.len())?;
     let job = JobSpec {
         matrix: spec,

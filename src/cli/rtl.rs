@@ -124,7 +124,6 @@ pub fn run_rtl(a: &RtlArgs) -> Result<()> {
     let p = Params::new(&cfg)?;
     let what = a
         .datapath
-        .machine
         .hw
         .as_ref()
         .map_or("the built-in paper.toml".to_string(), |h| {

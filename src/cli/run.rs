@@ -2,7 +2,6 @@
 //! fixed-point model.
 
 use super::args::{MachineArgs, OnOff, SceneSourceArgs};
-use crate::config;
 use crate::error::{Error, Result};
 use crate::machine::run::{execute, RunSpec, Waveform};
 use crate::machine::vcd::{FstPack, ScopeFilter, VcdOptions, WaveFormat, Window};
@@ -65,7 +64,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
     check_outputs(&a.outputs()?)?;
     crate::machine::vcd::set_wave_limit(a.wave_limit);
     let (scene, source) = a.input.load()?;
-    let mut cfg = config::load(&a.machine.source())?;
+    let mut cfg = a.machine.load()?;
     if let Some(b) = a.balance {
         cfg.balance.enabled = b == OnOff::On;
     }

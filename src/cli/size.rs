@@ -2,7 +2,6 @@
 //! as a configuration (usable with `--hw`) and a report (markdown and JSON).
 
 use super::args::{MachineArgs, SceneSourceArgs};
-use crate::config;
 use crate::error::{Error, Result};
 use crate::output::{check_outputs, write_atomic, write_json, Output};
 use crate::paper::PAPER_RAYS;
@@ -51,7 +50,7 @@ pub fn run(a: &SizeArgs) -> Result<()> {
         check_outputs(&outs)?;
     }
     let (scene, source) = a.input.load()?;
-    let base = config::load(&a.machine.source())?;
+    let base = a.machine.load()?;
     let ratio = match a.rays {
         Some(n) if n == 0 || n % PAPER_RAYS != 0 => {
             return Err(Error::Usage(format!(

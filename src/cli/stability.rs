@@ -65,7 +65,7 @@ pub fn run(a: &StabilityArgs) -> Result<()> {
         rays: a.rays,
         seed: a.seed,
         bits: a.frac_bits.0..=a.frac_bits.1,
-        config: crate::config::load(&a.machine.source())?,
+        config: a.machine.load()?,
     };
     let r = stability::run(&opts)?;
     for w in r.cases.iter().flat_map(|c| &c.warnings) {

@@ -89,7 +89,7 @@ pub fn run(c: &SweepCmd) -> Result<()> {
         file,
         cfg.datapath,
         &spec,
-        crate::config::cell_size(cfg.machine.cell_size, scene.bounds.scale()),
+        crate::config::cell_size(cfg.machine.cell_size, scene.size()),
         a.from..=a.to,
     )?;
     crate::output::outln!(

@@ -318,7 +318,7 @@ pub fn evaluate(spec: &Spec, pt: &Point, reference: &[f64]) -> Result<(PointResu
         sq += d * d;
         samp = samp.max((r * (1.0 - r) / pt.rays as f64).max(0.0).sqrt());
     }
-    let resolved = crate::config::resolve(&pt.config, scene.bounds.scale())?;
+    let resolved = crate::config::resolve(&pt.config, scene.size())?;
     let cost = match &sh.host {
         Some(host) => Some(size::cost_on(&resolved, scene, &sc.path, host)?),
         None => None,

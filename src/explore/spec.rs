@@ -772,7 +772,7 @@ impl Builder<'_> {
             Err(e) => return Err(e),
         };
         let sc = &self.scenes[scene];
-        if let Err(e) = config::resolve(&config, sc.scene.bounds.scale()) {
+        if let Err(e) = config::resolve(&config, sc.scene.size()) {
             return Err(match e {
                 Error::Input { place, what, .. } => named(&place, what),
                 e => e,

@@ -110,7 +110,7 @@ pub fn default_job() -> Result<DefaultJob> {
         directions: Directions::Rings,
         seed: 1,
     };
-    let cell = crate::config::cell_size(cfg.machine.cell_size, scene.bounds.scale());
+    let cell = crate::config::cell_size(cfg.machine.cell_size, scene.size());
     let reference = cast::run_scene(&scene, path, &rays, cell)?;
     // 3. Grid traversal against brute force, and the fixed-point model against the float
     //    reference, on the same rays.
@@ -139,7 +139,10 @@ pub fn default_job() -> Result<DefaultJob> {
 fn analytic_check() -> AnalyticCheck {
     use glam::DVec3;
     let cube = crate::scene::gen::unit_cube();
-    let cell = crate::config::cell_size(crate::config::built_in().machine.cell_size, 1.0);
+    let cell = crate::config::cell_size(
+        crate::config::built_in().machine.cell_size,
+        crate::config::SceneSize::of_scale(1.0),
+    );
     let tracer = Tracer::new(&cube, cell).expect("the unit cube builds");
     let centre = DVec3::new(0.5, 0.5, 0.0);
     let n = 100_000;

@@ -96,7 +96,7 @@ pub fn prepare(
     cfg: &MachineConfig,
     spec: &RunSpec,
 ) -> Result<Prepared> {
-    let cfg = &config::resolve(cfg, scene.bounds.scale())?;
+    let cfg = &config::resolve(cfg, scene.size())?;
     let m = &cfg.machine;
     let cell = m.cell_size.value();
     let tracer = Tracer::new(scene, cell).map_err(|e| e.for_scene(file))?;
@@ -189,7 +189,13 @@ pub fn simulate(
         sectors,
     } = *input;
     let start = std::time::Instant::now();
-    let hw = config::in_hardware_units(cfg, host.scale)?;
+    let hw = config::in_hardware_units(
+        cfg,
+        config::SceneSize {
+            scale: host.scale,
+            patches: host.scene.patches.len(),
+        },
+    )?;
     crate::limits::check_machine_memory(Machine::memory_estimate(
         &hw,
         host.scene.patches.len(),
@@ -387,7 +393,7 @@ pub fn execute(
         write_json(
             out_path,
             &Out {
-                config: config::resolve(cfg, scene.bounds.scale())?,
+                config: config::resolve(cfg, scene.size())?,
                 stats: &out.stats,
                 host,
             },

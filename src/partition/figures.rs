@@ -65,7 +65,7 @@ fn run_kind(
     g: Granularity,
 ) -> Partition {
     let mut cfg = Config::paper(kind.default_source() as u32, sections, FIGURE_CTUS, ratio)
-        .scaled_to(scene.bounds.scale());
+        .scaled_to(scene.size());
     cfg.granularity = g;
     partition(scene, tracer, &cfg)
 }
@@ -73,10 +73,7 @@ fn run_kind(
 /// The float tracer of a committed scene on the built-in configuration's cell size.
 fn tracer_of(scene: &Scene) -> Result<Tracer> {
     let m = &crate::config::built_in().machine;
-    Tracer::new(
-        scene,
-        crate::config::cell_size(m.cell_size, scene.bounds.scale()),
-    )
+    Tracer::new(scene, crate::config::cell_size(m.cell_size, scene.size()))
 }
 
 /// Regenerates the committed figures and the imbalance table into `dir`.

@@ -108,16 +108,19 @@ impl Config {
             shell_radius: ShellParams::default().radius,
             subshell_max: ShellParams::default().subshell_max,
             seed: 1,
-            cell_size: crate::config::cell_size(crate::config::built_in().machine.cell_size, 1.0),
+            cell_size: crate::config::cell_size(
+                crate::config::built_in().machine.cell_size,
+                crate::config::SceneSize::of_scale(1.0),
+            ),
         }
     }
 
-    /// The built-in configuration's shell radius and cell size for a scene of `scale`
-    /// (`Aabb::scale`) instead of the unit cube's.
-    pub fn scaled_to(mut self, scale: f64) -> Config {
+    /// The built-in configuration's shell radius and cell size for a scene of `size`
+    /// (`Scene::size`) instead of the unit cube's.
+    pub fn scaled_to(mut self, size: crate::config::SceneSize) -> Config {
         let m = &crate::config::built_in().machine;
-        self.shell_radius = crate::config::shell_radius(m.shell_radius, scale);
-        self.cell_size = crate::config::cell_size(m.cell_size, scale);
+        self.shell_radius = crate::config::shell_radius(m.shell_radius, size.scale);
+        self.cell_size = crate::config::cell_size(m.cell_size, size);
         self
     }
 

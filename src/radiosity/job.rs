@@ -148,7 +148,7 @@ pub fn run(
     }
     let tracer = Tracer::new(
         scene,
-        crate::config::cell_size(cfg.machine.cell_size, scene.bounds.scale()),
+        crate::config::cell_size(cfg.machine.cell_size, scene.size()),
     )?;
     let im = &job.image;
     let hits: HitBuffer = render::cast(&tracer, &im.camera, im.width, im.height);

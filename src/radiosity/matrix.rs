@@ -183,7 +183,7 @@ impl<'a> Shared<'a> {
         cfg: &'a MachineConfig,
         model: Model,
     ) -> Result<Self> {
-        let resolved = crate::config::resolve(cfg, scene.bounds.scale())?;
+        let resolved = crate::config::resolve(cfg, scene.size())?;
         let cell = resolved.machine.cell_size.value();
         let shell_radius = resolved.machine.shell_radius.value();
         let tracer = Tracer::new(scene, cell)?;

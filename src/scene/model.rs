@@ -208,6 +208,15 @@ impl Patch {
 }
 
 impl Scene {
+    /// What the configuration's `auto` lengths are derived from: the largest extent and
+    /// the patch count.
+    pub fn size(&self) -> crate::config::SceneSize {
+        crate::config::SceneSize {
+            scale: self.bounds.scale(),
+            patches: self.patches.len(),
+        }
+    }
+
     /// Checks the bounds and every patch; the error names `file` and the patch.
     pub fn validate(&self, file: &Path) -> Result<()> {
         let b = self.bounds;

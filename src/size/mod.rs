@@ -362,8 +362,7 @@ pub fn size(
     }
     let rays_n = PAPER_RAYS * spec.ratio;
     crate::reference::rays::check_source_and_rays(scene, file, spec.source, rays_n)?;
-    let scale = scene.bounds.scale();
-    let resolved = config::resolve(base, scale)?;
+    let resolved = config::resolve(base, scene.size())?;
     let cell = resolved.machine.cell_size.value();
     let tracer = Tracer::new(scene, cell)?;
     let src = &scene.patches[spec.source as usize];
@@ -466,7 +465,7 @@ pub fn size(
             }
         }
     }
-    let ext = scene.bounds.extent() / scale;
+    let ext = scene.bounds.extent() / scene.bounds.scale();
     let diag = ext.length();
     let mut tmax = 0.0f64;
     for (i, r) in bench.rays.rays.iter().enumerate() {
@@ -502,7 +501,7 @@ pub fn size(
     sized.datapath.coord_int_bits = coord_bits;
     sized.datapath.t_int_bits = t_bits;
     // The shell radius must still fit the t format.
-    if config::resolve(&sized, scale).is_err() {
+    if config::resolve(&sized, scene.size()).is_err() {
         sized.datapath.t_int_bits = resolved.datapath.t_int_bits.max(t_bits);
     }
 

@@ -646,8 +646,7 @@ fn machine_row(
 
 /// Runs one case on every model and width.
 pub fn run_case(case: &Case, opts: &Options, bits: &[u32]) -> Result<CaseReport> {
-    let scale = case.scene.bounds.scale();
-    let cfg = config::resolve(&opts.config, scale)?;
+    let cfg = config::resolve(&opts.config, case.scene.size())?;
     let cell = cfg.machine.cell_size.value();
     let tracer = Tracer::new(&case.scene, cell).map_err(|e| e.for_scene(Path::new(case.name)))?;
     let float: Vec<Option<Hit>> = case
