@@ -125,7 +125,9 @@ fn header(large: bool, rays: usize) {
          the float reference's closure probe (`scene info`). `leaks`: rays the fixed-point model \
          lost where the float reference hit a patch (in brackets: of those, rays whose origin no lattice point 2 LSB clear of every patch could hold — a source only a few LSBs wide; watertightness is promised for the others). `σ`: the largest form-factor error over the \
          four sources in units of the float estimate's sampling error. `verdict`: `check`'s. \
-         As a Slurm array of one task per row: ci/corpus-study.sbatch.\n",
+         As a Slurm array of one task per row: ci/corpus-study.sbatch \
+         (`bash ci/slurm-check.sh --study ci/corpus-study.sbatch` runs it on a private one-node \
+         cluster: 40 tasks and the merge, 1,106 s on 2 cores).\n",
         if large { "large" } else { "small" }
     );
     println!("| scene | patches | closed | F | rays | float escaped | leaks | mismatches | unexplained | σ | verdict |");

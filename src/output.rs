@@ -210,6 +210,25 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     tmp.persist()
 }
 
+/// Writes `path` atomically, as [`write_atomic`], by streaming: `write` writes into a
+/// buffered writer, so nothing beyond the buffer is held in memory.
+pub fn write_atomic_with(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> std::io::Result<()>,
+) -> Result<()> {
+    let (tmp, f) = TempFile::create(path)?;
+    let mut w = std::io::BufWriter::with_capacity(1 << 20, f);
+    write(&mut w).map_err(|e| Error::io(path, e))?;
+    let f = w
+        .into_inner()
+        .map_err(|e| Error::io(path, e.into_error()))?;
+    if tmp.tmp.is_some() {
+        f.sync_all().map_err(|e| Error::io(path, e))?;
+    }
+    drop(f);
+    tmp.persist()
+}
+
 /// Syncs `f` to disk when it is a regular file (a device or FIFO cannot be synced, and
 /// need not be).
 pub fn sync_file(f: &File) -> std::io::Result<()> {

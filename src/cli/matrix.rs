@@ -35,6 +35,12 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
     let m = matrix::compute(&scene, &a.scene.scene, &cfg, &spec, true)?;
     let wall = start.elapsed().as_secs_f64();
     let summary = Summary::new(&m, &spec, &cfg, a.rays.clock_mhz);
+    outln!(
+        "writing {}: {} nonzeros, about {}",
+        a.out.display(),
+        summary.nonzeros,
+        crate::limits::human(m.matrix_market_estimate())
+    );
     matrix::write(&a.out, &m, &summary)?;
     outln!(
         "{}: {} model, {} rows × {} rays, {} nonzeros, max |row sum − 1| {:.3e}, max escaped {:.3e}, {:.2} s wall",

@@ -96,6 +96,8 @@ pub fn solve_model(
                 model,
                 ..spec.clone()
             };
+            // The matrix, then the solver's transposed copy and its iterate.
+            matrix::check_memory(&spec, scene.patches.len(), 3)?;
             let m = matrix::compute(scene, file, cfg, &spec, progress)?;
             let summary = Summary::new(&m, &spec, cfg, clock_mhz);
             summary.verdict()?;

@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 use crate::fixed::origin::Placement;
 use crate::fixed::records::HostFixed;
 use crate::machine::run::{simulate, MachineInput, RunSpec};
-use crate::output::{json_string, write_atomic};
+use crate::output::{json_string, write_atomic, write_atomic_with};
 use crate::partition::{self, Config as PartitionConfig};
 use crate::progress::Progress;
 use crate::reference::rays::{check_source_and_rays, hemisphere_rays, Directions, Origins, RaySet};
@@ -145,16 +145,96 @@ impl FormMatrix {
         self.rows.iter().map(|r| r.entries.len()).sum()
     }
 
-    /// The Matrix Market text (coordinate, real, general; 1-based), written by sprs.
+    /// Writes the Matrix Market text (coordinate, real, general; 1-based) through sprs's
+    /// writer, from the rows as they are (no copy of the entries); `rows_done` is called
+    /// after each row.
+    pub fn write_matrix_market(
+        &self,
+        w: &mut dyn std::io::Write,
+        rows_done: &mut dyn FnMut(u64),
+    ) -> std::io::Result<()> {
+        let done = std::cell::Cell::new(0u64);
+        let view = View {
+            m: self,
+            done: &done,
+        };
+        let mut w = Ticking {
+            w,
+            done: &done,
+            seen: 0,
+            rows_done,
+        };
+        sprs::io::write_matrix_market_to_bufwrite(&mut w, view)
+    }
+
+    /// The Matrix Market text in memory (tests and small matrices).
     pub fn matrix_market(&self) -> Vec<u8> {
-        let mut tri = sprs::TriMat::new((self.n, self.n));
-        for (i, j, f) in self.triplets() {
-            tri.add_triplet(i, j, f);
-        }
         let mut out = Vec::new();
-        sprs::io::write_matrix_market_to_bufwrite(&mut out, &tri)
+        self.write_matrix_market(&mut out, &mut |_| {})
             .expect("writing to memory does not fail");
         out
+    }
+
+    /// Bytes of the Matrix Market file, estimated from the nonzeros (the file is written
+    /// after every row is known, so this is announced before it is written): each line
+    /// holds two 1-based ids and a value printed at full precision (about 20 characters).
+    pub fn matrix_market_estimate(&self) -> u64 {
+        let id = (self.n.max(1) as f64).log10().floor() as u64 + 1;
+        80 + self.nnz() as u64 * (2 * id + 2 + 21)
+    }
+}
+
+/// A matrix as sprs's writer sees it: borrowed rows, counting rows as their entries go by.
+struct View<'a> {
+    m: &'a FormMatrix,
+    done: &'a std::cell::Cell<u64>,
+}
+
+impl sprs::SparseMat for View<'_> {
+    fn rows(&self) -> usize {
+        self.m.n
+    }
+    fn cols(&self) -> usize {
+        self.m.n
+    }
+    fn nnz(&self) -> usize {
+        self.m.nnz()
+    }
+}
+
+impl<'a> IntoIterator for View<'a> {
+    type Item = (&'a f64, (usize, usize));
+    type IntoIter = Box<dyn Iterator<Item = Self::Item> + 'a>;
+    fn into_iter(self) -> Self::IntoIter {
+        let done = self.done;
+        Box::new(self.m.rows.iter().flat_map(move |r| {
+            done.set(done.get() + 1);
+            r.entries
+                .iter()
+                .map(move |(j, f)| (f, (r.source as usize, *j as usize)))
+        }))
+    }
+}
+
+/// A writer that reports rows done (from [`View`]'s count) as the text goes out.
+struct Ticking<'a, 'b> {
+    w: &'a mut dyn std::io::Write,
+    done: &'b std::cell::Cell<u64>,
+    seen: u64,
+    rows_done: &'b mut dyn FnMut(u64),
+}
+
+impl std::io::Write for Ticking<'_, '_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let d = self.done.get();
+        if d > self.seen {
+            (self.rows_done)(d - self.seen);
+            self.seen = d;
+        }
+        self.w.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.w.flush()
     }
 }
 
@@ -423,6 +503,54 @@ pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Optio
     Ok((run.row(sh.scene, i), mr))
 }
 
+/// Bytes a matrix job holds at its peak, estimated before anything is allocated: the rays
+/// of the rows in flight (one row per thread) with their prepared forms, fixed-point
+/// records and hits, and the rows kept — at most min(rays, n) entries of 16 bytes each —
+/// `copies` times (a solver keeps its own transposed copy).
+pub fn memory_estimate(spec: &MatrixSpec, n: usize, copies: u64) -> (u64, u64) {
+    let mut per_ray = crate::reference::rays::ray_bytes();
+    if spec.model != Model::Float {
+        per_ray += std::mem::size_of::<RayRecord>() as u64
+            + 2 * std::mem::size_of::<Option<shellsim_hw::FixedHit>>() as u64
+            + 64;
+    }
+    let rows = spec.sources.len() as u64;
+    let threads = (rayon::current_num_threads() as u64).min(rows);
+    let rays = threads * spec.rays as u64 * per_ray;
+    let entries = rows * spec.rays.min(n) as u64;
+    let matrix = copies
+        * (rows * std::mem::size_of::<Row>() as u64
+            + entries * std::mem::size_of::<(u32, f64)>() as u64);
+    (rays, matrix)
+}
+
+/// Refuses a matrix job whose [`memory_estimate`] is past the memory limit, naming what
+/// dominates it: the rays per source, or the rows.
+pub fn check_memory(spec: &MatrixSpec, n: usize, copies: u64) -> Result<()> {
+    let (rays, matrix) = memory_estimate(spec, n, copies);
+    let (key, value, what) = if rays >= matrix {
+        (
+            "rays",
+            spec.rays.to_string(),
+            match rayon::current_num_threads().min(spec.sources.len()) {
+                1 => "the rays of a row and the matrix".to_string(),
+                k => format!("the rays of {k} rows at once (one per thread) and the matrix"),
+            },
+        )
+    } else {
+        (
+            "sources",
+            format!("{}..{}", spec.sources.start, spec.sources.end),
+            format!(
+                "{} rows of up to {} entries each",
+                spec.sources.len(),
+                spec.rays.min(n)
+            ),
+        )
+    };
+    crate::limits::check_memory(key, &value, &what, rays + matrix)
+}
+
 /// Every row of `spec.sources`, in parallel over sources (rayon), collected in source
 /// order: the result does not depend on the thread count. A progress bar with ETA on a
 /// terminal.
@@ -434,6 +562,7 @@ pub fn compute(
     show_progress: bool,
 ) -> Result<FormMatrix> {
     validate(spec, scene, file)?;
+    check_memory(spec, scene.patches.len(), 1)?;
     let sh = Shared::new(scene, file, cfg, spec.model)?;
     let ids: Vec<u32> = spec.sources.clone().collect();
     let mut progress = show_progress.then(|| Progress::new(ids.len() as u64, "sources"));
@@ -604,7 +733,11 @@ pub fn write(path: &Path, m: &FormMatrix, summary: &Summary) -> Result<()> {
             ),
         ));
     }
-    write_atomic(path, &m.matrix_market())?;
+    let mut bar = Progress::new(m.rows.len() as u64, "writing");
+    write_atomic_with(path, |w| {
+        m.write_matrix_market(w, &mut |rows| bar.inc(rows))
+    })?;
+    bar.finish();
     write_atomic(&sp, json_string(summary).as_bytes())
 }
 
