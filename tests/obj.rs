@@ -222,6 +222,7 @@ fn size_meets_the_target() {
         ratio: 1,
         max_cycles: None,
         tolerance: 0.01,
+        allow_larger: false,
     };
     let base = *shellsim::config::built_in();
     let r = shellsim::size::size(&scene, &path(), &base, &spec).unwrap_or_else(|e| panic!("{e}"));
@@ -256,7 +257,7 @@ fn command_takes_names(args: &str, want: &str) {
 mod command {
     use super::*;
     testcases! { command_takes_names;
-        reference => "reference", "from patch 6: 969 Rings rays";
+        reference => "reference", "from patch 6: 969 rays (rings)";
         check => "check", "unexplained: 0";
         run => "run --ratio 1", "0 mismatches vs fixed";
         size => "size --target-error 1e-2", "# Sizing cornell-public from patch 6";

@@ -17,6 +17,7 @@ fn spec(source: u32, e: f64) -> SizeSpec {
         ratio: 1,
         max_cycles: None,
         tolerance: 0.01,
+        allow_larger: false,
     }
 }
 
@@ -34,6 +35,12 @@ fn sized_machine_meets_the_target(file: &str, source: u32) {
         r.measured.cost.total_bits,
         r.base.cost.total_bits
     );
+    // The base is the ceiling of what buys cycles: no buffer or shape grew.
+    let (m, b) = (&r.machine, &base);
+    assert!(m.machine.ray_buffer_capacity <= b.machine.ray_buffer_capacity);
+    assert!(m.machine.patch_buffer_capacity <= b.machine.patch_buffer_capacity);
+    assert!(m.machine.request_queue_capacity <= b.machine.request_queue_capacity);
+    assert!(m.machine.clusters <= b.machine.clusters);
     // The bisection's evidence: the chosen width meets, one fewer does not.
     let at = |b: u32| r.bits.iter().find(|t| t.frac_bits == b).map(|t| t.meets);
     assert_eq!(at(r.frac_bits), Some(true));
@@ -77,7 +84,8 @@ mod refused {
         zero_target => "--target-error 0", "not a positive form-factor error";
         negative_target => "--target-error -1e-3", "not a positive form-factor error";
         below_the_estimators_own_error => "--target-error 1e-6 --against reference", "below the float estimator's own error";
-        no_machine_fast_enough => "--target-error 1e-2 --max-cycles 10", "no machine up to 64 clusters";
+        no_machine_fast_enough => "--target-error 1e-2 --max-cycles 10 --allow-larger", "no machine up to 64 clusters";
+        no_machine_within_the_base => "--target-error 1e-2 --max-cycles 10", "no machine up to the base configuration's 4 clusters × 2 CTUs";
         rays_not_a_multiple => "--target-error 1e-2 --rays 1000", "not a positive multiple of 969";
     }
 }

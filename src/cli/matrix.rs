@@ -35,23 +35,30 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
     let m = matrix::compute(&scene, &a.scene.scene, &cfg, &spec, true)?;
     let wall = start.elapsed().as_secs_f64();
     let summary = Summary::new(&m, &spec, &cfg, a.rays.clock_mhz);
+    let on_patches = |r: &matrix::RowSummary| r.row_sum - r.escaped_weight - r.back_weight;
+    let (lo, hi) = summary
+        .rows
+        .iter()
+        .fold((f64::INFINITY, 0.0f64), |(lo, hi), r| {
+            (lo.min(on_patches(r)), hi.max(on_patches(r)))
+        });
+    let back = summary
+        .rows
+        .iter()
+        .fold(0.0f64, |a, r| a.max(r.back_weight));
     outln!(
-        "writing {}: {} nonzeros, about {}",
-        a.out.display(),
-        summary.nonzeros,
-        crate::limits::human(m.matrix_market_estimate())
-    );
-    matrix::write(&a.out, &m, &summary)?;
-    outln!(
-        "{}: {} model, {} rows × {} rays, {} nonzeros, max |row sum − 1| {:.3e}, max escaped {:.3e}, {:.2} s wall",
+        "{}: {} model, {} rows × {} rays, {} nonzeros, {:.2} s wall",
         summary.scene,
         spec.model.name(),
         m.rows.len(),
         spec.rays,
         summary.nonzeros,
-        summary.max_row_sum_error,
-        summary.max_escaped_weight,
         wall
+    );
+    outln!(
+        "per row: ΣF over patches {lo:.6} to {hi:.6}, escaped up to {:.3e}, on back sides up to {back:.3e}; |ΣF + escaped + back − 1| up to {:.3e}",
+        summary.max_escaped_weight,
+        summary.max_row_sum_error,
     );
     if let Some(t) = &summary.machine {
         outln!(
@@ -59,6 +66,13 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
             t.cycles, t.time_s, t.clock_mhz, t.pipeline_efficiency, t.patch_loads, t.mismatches_vs_fixed
         );
     }
+    outln!(
+        "writing {}: {} nonzeros, about {}",
+        a.out.display(),
+        summary.nonzeros,
+        crate::limits::human(m.matrix_market_estimate())
+    );
+    matrix::write(&a.out, &m, &summary)?;
     outln!(
         "wrote {} and {}",
         a.out.display(),

@@ -119,8 +119,8 @@ pub fn run(a: &RadiosityArgs) -> Result<()> {
     for s in &r.solutions {
         let e = &s.energy;
         outln!(
-            "{}: {} {:?} ({:?} system), {} iterations, residual {:.2e}; energy: emitted {:.6}, absorbed {:.6}, escaped {:.6}, on back sides {:.6}, imbalance {:+.3e}",
-            r.scene, s.model.name(), r.method, r.system, s.iterations, s.residual, e.emitted, e.absorbed, e.escaped, e.back, e.imbalance
+            "{}: {} model, {} ({}), {} iterations, residual {:.2e}; energy: emitted {:.6}, absorbed {:.6}, escaped {:.6}, on back sides {:.6}, imbalance {:+.3e}",
+            r.scene, s.model.name(), r.method.describe(), r.system.describe(), s.iterations, s.residual, e.emitted, e.absorbed, e.escaped, e.back, e.imbalance
         );
         if let Some(t) = &s.machine {
             outln!(

@@ -75,12 +75,18 @@ pub fn run(a: &ReferenceArgs) -> Result<()> {
 
 fn print_reference(r: &ReferenceReport, scene: &Scene) {
     crate::output::outln!(
-        "{} from patch {}: {} {:?} rays, {} escaped, ΣF = {:.12}",
+        "{} from patch {}: {} rays ({}), {} escaped",
         r.scene,
         r.source,
         r.rays,
-        r.directions,
+        r.directions.name(),
         r.escaped,
+    );
+    crate::output::outln!(
+        "ΣF over patches {:.6} (on back sides {:.6}), escaped {:.6}: {:.12} in all",
+        r.weight_sum - r.escaped_weight,
+        r.back_weight,
+        r.escaped_weight,
         r.weight_sum
     );
     crate::output::outln!(

@@ -36,6 +36,11 @@ pub struct SizeArgs {
     /// Buffers: the cycles may exceed an unbounded machine's by this fraction.
     #[arg(long, default_value_t = 0.01)]
     pub tolerance: f64,
+    /// Let the sized machine be larger than the base configuration where that buys cycles
+    /// (clusters, CTUs, buffer capacity); without it the base is the ceiling. Fractional
+    /// bits follow --target-error either way.
+    #[arg(long)]
+    pub allow_larger: bool,
     /// Write machine.toml, size.md and size.json here.
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -73,6 +78,7 @@ pub fn run(a: &SizeArgs) -> Result<()> {
         ratio,
         max_cycles: a.max_cycles,
         tolerance: a.tolerance,
+        allow_larger: a.allow_larger,
     };
     let r = size(&scene, a.input.path(), &base, &spec)?;
     let md = markdown(&r);

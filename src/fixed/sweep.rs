@@ -164,7 +164,10 @@ pub fn sweep_scene(
 /// The chart's title for a sweep of `spec` on `scene`.
 pub fn title(scene: &Scene, spec: &RaySpec) -> String {
     format!(
-        "{}: fixed point vs float, {} {:?} rays from patch {}",
-        scene.name, spec.rays, spec.directions, spec.source
+        "{}: fixed point vs float, {} rays ({}) from patch {}",
+        scene.name,
+        spec.rays,
+        spec.directions.name(),
+        spec.source
     )
 }

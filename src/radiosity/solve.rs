@@ -25,6 +25,16 @@ pub enum Method {
     Shoot,
 }
 
+impl Method {
+    /// The method's name in a sentence.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Method::Gs => "Gauss-Seidel",
+            Method::Shoot => "Southwell shooting",
+        }
+    }
+}
+
 /// Which linear system the matrix stands for.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -35,6 +45,16 @@ pub enum System {
     /// A_j B_j = A_j E_j + ρ_j Σ_i F_ij A_i B_i: patch i's power goes out along row i (the
     /// rays cast from i), so emitted = absorbed + escaped + back exactly.
     Power,
+}
+
+impl System {
+    /// The system's name in a sentence.
+    pub fn describe(self) -> &'static str {
+        match self {
+            System::Gather => "gathering system",
+            System::Power => "power system",
+        }
+    }
 }
 
 /// When to stop: the residual max_i,c |E + ρ H − B| over max E is at most `tol`, or

@@ -32,6 +32,9 @@ pub struct ReferenceReport {
     pub escaped_weight: f64,
     /// Σ form factors + escaped weight (1 up to rounding).
     pub weight_sum: f64,
+    /// The part of the form factors that lands on patches' back sides (a back side
+    /// neither emits nor reflects; `matrix` files it apart from the row's entries).
+    pub back_weight: f64,
     pub form_factors: Vec<FormFactor>,
     /// Grid cells stepped through, over all rays.
     pub cells_visited: u64,
@@ -141,6 +144,15 @@ pub fn run(tracer: &Tracer, set: &RaySet, info: &RunInfo, show_progress: bool) -
     let (form_factors, escaped, escaped_weight) =
         form_factors(&hits, &set.weights, tracer.patches.len());
     let weight_sum = form_factors.iter().map(|f| f.value).sum::<f64>() + escaped_weight;
+    let back_weight = hits
+        .iter()
+        .zip(&set.weights)
+        .zip(&set.rays)
+        .filter_map(|((h, w), r)| {
+            h.filter(|h| tracer.patches[h.patch as usize].normal.dot(r.d) > 0.0)
+                .map(|_| w)
+        })
+        .fold(0.0, |a, w| a + w);
     ReferenceReport {
         scene: info.scene.to_string(),
         source: info.source,
@@ -151,6 +163,7 @@ pub fn run(tracer: &Tracer, set: &RaySet, info: &RunInfo, show_progress: bool) -
         escaped,
         escaped_weight,
         weight_sum,
+        back_weight,
         form_factors,
         cells_visited: counts.cells,
         patch_tests: counts.tests,

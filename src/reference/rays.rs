@@ -25,6 +25,17 @@ pub enum Directions {
     Random,
 }
 
+impl Directions {
+    /// The set's name as the command line spells it (`rings`, `malley`, `random`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Directions::Rings => "rings",
+            Directions::Malley => "malley",
+            Directions::Random => "random",
+        }
+    }
+}
+
 /// Relative pull of origins towards the patch centroid, keeping them clear of the patch's
 /// edges (so no origin lies on an edge shared with a neighbour).
 pub const ORIGIN_CLEARANCE: f64 = 1e-6;

@@ -78,6 +78,10 @@ pub struct SizeSpec {
     /// A buffer is big enough when the cycles stay within this fraction of an unbounded
     /// machine's.
     pub tolerance: f64,
+    /// The base configuration is the ceiling for what buys cycles (clusters and CTUs, every
+    /// buffer) unless this is set. Fractional bits follow the accuracy target, which asks
+    /// for them; the report says when they exceed the base's.
+    pub allow_larger: bool,
 }
 
 /// One evaluated fractional width.
@@ -177,6 +181,8 @@ pub struct SizeReport {
     pub float_ff_err_max: f64,
     pub bits: Vec<BitsTrial>,
     pub frac_bits: u32,
+    /// The base configuration's fractional bits.
+    pub base_frac_bits: u32,
     pub ranges: Vec<RangeRow>,
     pub shapes: Vec<ShapeTrial>,
     pub buffers: Vec<BufferRow>,
@@ -450,7 +456,6 @@ pub fn size(
     }
     let frac_bits = hi;
     bits.sort_by_key(|t| t.frac_bits);
-
     // 2. Integer bits: the scene normalized to its scale lies in [0, 1]³ (coordinates
     //    relative to the grid origin); t reaches at most the grid's diagonal.
     let (_, _, host) = bench.fixed_error(with_bits(frac_bits))?;
@@ -509,8 +514,13 @@ pub fn size(
     let mut shapes = Vec::new();
     if let Some(max) = spec.max_cycles {
         let mut found = None;
-        'shape: for c in 1..=MAX_CLUSTERS {
-            for k in CTU_COUNTS {
+        let (max_c, max_k) = if spec.allow_larger {
+            (MAX_CLUSTERS, u32::MAX)
+        } else {
+            (base.machine.clusters, base.machine.ctus_per_cluster)
+        };
+        'shape: for c in 1..=max_c {
+            for k in CTU_COUNTS.into_iter().filter(|&k| k <= max_k) {
                 let mut t = sized;
                 t.machine.clusters = c;
                 t.machine.ctus_per_cluster = k;
@@ -528,12 +538,19 @@ pub fn size(
         }
         let Some((c, k)) = found else {
             let best = shapes.iter().map(|s| s.cycles).min().unwrap_or(0);
+            let what = if spec.allow_larger {
+                format!(
+                    "no machine up to {MAX_CLUSTERS} clusters × {} CTUs",
+                    CTU_COUNTS[CTU_COUNTS.len() - 1]
+                )
+            } else {
+                format!(
+                    "no machine up to the base configuration's {max_c} clusters × {max_k} CTUs (the ceiling unless a larger machine is allowed: --allow-larger)"
+                )
+            };
             return Err(Error::param(
                 "max_cycles",
-                format!(
-                    "{max}: no machine up to {MAX_CLUSTERS} clusters × {} CTUs meets it (the fastest tried took {best} cycles)",
-                    CTU_COUNTS[CTU_COUNTS.len() - 1]
-                ),
+                format!("{max}: {what} meets it (the fastest tried took {best} cycles)"),
             ));
         };
         sized.machine.clusters = c;
@@ -620,7 +637,22 @@ pub fn size(
                 lo = mid;
             }
         }
-        let binds = if hi == least && least > 1 {
+        // The base's capacity is the ceiling: what a larger one would buy is reported.
+        let ceiling = if !spec.allow_larger && hi > base_cap.max(least) {
+            let at_base = cycles_at(base_cap.max(least))?;
+            let (want, want_cycles) = (hi, hi_cycles);
+            hi = base_cap.max(least);
+            hi_cycles = at_base;
+            Some(format!(
+                "the base's {hi} is the ceiling: {want} would keep the cycles within the tolerance ({at_base} → {want_cycles}, −{:.1} %; --allow-larger takes it)",
+                100.0 * (at_base - want_cycles.min(at_base)) as f64 / at_base.max(1) as f64
+            ))
+        } else {
+            None
+        };
+        let binds = if let Some(c) = ceiling {
+            c
+        } else if hi == least && least > 1 {
             format!("balance.work_item_jobs = {least} (a work-item must fit)")
         } else if hi == least {
             "the least legal capacity already keeps the cycles".into()
@@ -652,9 +684,32 @@ pub fn size(
             break;
         }
         let m = &mut sized.machine;
-        m.ray_buffer_capacity += m.ray_buffer_capacity.div_ceil(4);
-        m.patch_buffer_capacity += m.patch_buffer_capacity.div_ceil(4);
-        m.request_queue_capacity += m.request_queue_capacity.div_ceil(4);
+        let grow = |v: u32, cap: u32| {
+            let g = v + v.div_ceil(4);
+            if spec.allow_larger {
+                g
+            } else {
+                g.min(cap.max(v))
+            }
+        };
+        let b = &base.machine;
+        let before = (
+            m.ray_buffer_capacity,
+            m.patch_buffer_capacity,
+            m.request_queue_capacity,
+        );
+        m.ray_buffer_capacity = grow(m.ray_buffer_capacity, b.ray_buffer_capacity);
+        m.patch_buffer_capacity = grow(m.patch_buffer_capacity, b.patch_buffer_capacity);
+        m.request_queue_capacity = grow(m.request_queue_capacity, b.request_queue_capacity);
+        if before
+            == (
+                m.ray_buffer_capacity,
+                m.patch_buffer_capacity,
+                m.request_queue_capacity,
+            )
+        {
+            break; // At the ceiling.
+        }
         measured = bench.measure(&sized)?;
     }
     for (row, v) in buffers.iter_mut().zip([
@@ -680,6 +735,7 @@ pub fn size(
         float_ff_err_max: float_err,
         bits,
         frac_bits,
+        base_frac_bits: base.datapath.frac_bits,
         ranges,
         shapes,
         buffers,
@@ -731,9 +787,16 @@ pub fn markdown(r: &SizeReport) -> String {
         ));
     }
     s.push_str(&format!(
-        "\nChosen: **{} fractional bits** — the fewest that meet the target ({} bits miss it).\n\n",
+        "\nChosen: **{} fractional bits** — the fewest that meet the target ({} bits miss it){}.\n\n",
         r.frac_bits,
-        r.frac_bits.saturating_sub(1)
+        r.frac_bits.saturating_sub(1),
+        match r.frac_bits.cmp(&r.base_frac_bits) {
+            std::cmp::Ordering::Greater => format!(
+                "; **more than the base configuration's {}**: the target asks for them",
+                r.base_frac_bits
+            ),
+            _ => format!("; the base configuration has {}", r.base_frac_bits),
+        }
     ));
     s.push_str("## Integer bits\n\nEach from its analytic upper bound (the scene normalized to its largest extent: coordinates in [0, 1], t up to the grid's diagonal), the measured range beside it.\n\n| value | lower bound | measured min | measured max | upper bound | int bits |\n| --- | --- | --- | --- | --- | --- |\n");
     for g in &r.ranges {
@@ -752,8 +815,13 @@ pub fn markdown(r: &SizeReport) -> String {
         }
     }
     s.push_str(&format!(
-        "\n## Buffers (smallest within {:.0} % of an unbounded machine's cycles)\n\n| buffer | peak occupancy | capacity | cycles | unbounded | base capacity | what binds |\n| --- | --- | --- | --- | --- | --- | --- |\n",
-        r.spec.tolerance * 100.0
+        "\n## Buffers (smallest within {:.0} % of an unbounded machine's cycles{})\n\n| buffer | peak occupancy | capacity | cycles | unbounded | base capacity | what binds |\n| --- | --- | --- | --- | --- | --- | --- |\n",
+        r.spec.tolerance * 100.0,
+        if r.spec.allow_larger {
+            ""
+        } else {
+            ", the base's capacity the ceiling"
+        }
     ));
     for b in &r.buffers {
         s.push_str(&format!(
