@@ -404,3 +404,62 @@ fn a_json_scene_without_names_is_written_as_before() {
     let back = Scene::from_json_str(&named.to_json_string(), Path::new("x.json")).unwrap();
     assert_eq!(back, named);
 }
+
+/// The default picture of a y-up OBJ looks horizontally into the room: with no `.mtl` and
+/// no `--emitter` the up axis is the file's convention (y); with the light named as the
+/// emitter it is the light's (facing down y). Either way the floor fills the lower half of
+/// the image and the ceiling the upper.
+#[test]
+fn the_default_camera_looks_into_a_y_up_room() {
+    use shellsim::radiosity::render::{cast, up_axis, Camera};
+    for emitter in [None, Some("light")] {
+        let scene = load(Edits {
+            emitter: emitter.map(String::from),
+            ..Edits::default()
+        });
+        let (up, why) = up_axis(&scene, &path());
+        assert_eq!(up, 1, "{emitter:?}: {why}");
+        let cam = Camera::default_for(&scene, up);
+        let tracer = Tracer::new(&scene, cell(&scene)).unwrap();
+        let h = 64;
+        let hits = cast(&tracer, &cam, 64, h);
+        let rows_of = |name: &str| -> Vec<u32> {
+            let ids: Vec<u32> = scene
+                .patches
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.name.as_deref() == Some(name))
+                .map(|(i, _)| i as u32)
+                .collect();
+            (0..hits.hits.len())
+                .filter(|&k| hits.hits[k].is_some_and(|(p, _)| ids.contains(&p)))
+                .map(|k| k as u32 / hits.width)
+                .collect()
+        };
+        let (floor, ceiling) = (rows_of("floor"), rows_of("ceiling"));
+        assert!(!floor.is_empty() && !ceiling.is_empty(), "{emitter:?}");
+        assert!(
+            floor.iter().all(|&r| r >= h / 2),
+            "{emitter:?}: floor pixels above the middle"
+        );
+        assert!(
+            ceiling.iter().all(|&r| r < h / 2),
+            "{emitter:?}: ceiling pixels below the middle"
+        );
+    }
+}
+
+/// A file where nothing emits is refused by `radiosity` (exit 2) with `--emitter` and the
+/// file's names, instead of a black picture.
+#[test]
+fn radiosity_without_an_emitter_names_the_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("r");
+    let o = shellsim(&["radiosity", "--scene", "{}", "--out", out.to_str().unwrap()]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("no patch emits light"), "{err}");
+    assert!(err.contains("--emitter NAME"), "{err}");
+    assert!(err.contains("ceiling, floor, leftWall, light"), "{err}");
+    assert!(!out.exists(), "nothing written");
+}

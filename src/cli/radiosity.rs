@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::output::{check_outputs, outln, Output};
 use crate::radiosity::job::{self, ImageSpec, JobSpec};
 use crate::radiosity::matrix::Model;
-use crate::radiosity::render::{Camera, Shading};
+use crate::radiosity::render::{up_axis, Camera, Shading};
 use crate::radiosity::solve::{Method, SolveParams, System};
 use std::path::PathBuf;
 
@@ -86,13 +86,44 @@ fn parse_compare(s: &str) -> Result<(Model, Model)> {
     Ok((a, b))
 }
 
+/// Nothing in the scene emits: the solution would be 0 everywhere and the picture black.
+/// The error names `--emitter` and the names the file gives its patches.
+fn no_emitter(scene: &crate::scene::Scene, file: &std::path::Path) -> Error {
+    let mut names: Vec<&str> = scene
+        .patches
+        .iter()
+        .flat_map(|p| [p.name.as_deref(), p.material.as_deref()])
+        .flatten()
+        .collect();
+    names.sort_unstable();
+    names.dedup();
+    let hint = if names.is_empty() {
+        "the file names no groups or materials: give emission in the scene file".to_string()
+    } else {
+        let shown: Vec<&str> = names.iter().take(12).copied().collect();
+        format!(
+            "make a group or material emit with --emitter NAME (this file's names: {}{})",
+            shown.join(", "),
+            if names.len() > shown.len() { ", …" } else { "" }
+        )
+    };
+    Error::input(
+        file,
+        "emission",
+        format!("no patch emits light, so the radiosity would be 0 everywhere and the picture black; {hint}"),
+    )
+}
+
 /// Runs `shellsim radiosity`.
 pub fn run(a: &RadiosityArgs) -> Result<()> {
     check_outputs(&[Output::dir("--out", &a.out)])?;
     let scene = a.scene.load()?;
+    if !scene.patches.iter().any(|p| p.emission.is_nonzero()) {
+        return Err(no_emitter(&scene, &a.scene.scene));
+    }
     let camera = match &a.camera {
         Some(s) => Camera::parse(s).map_err(|w| Error::Usage(format!("--camera {s:?}: {w}")))?,
-        None => Camera::default_for(&scene),
+        None => Camera::default_for(&scene, up_axis(&scene, &a.scene.scene).0),
     };
     let compare = a.compare.as_deref().map(parse_compare).transpose()?;
     let cfg = a.rays.machine.load()?;

@@ -13,6 +13,39 @@ use serde::Serialize;
 use std::collections::HashMap;
 use std::path::Path;
 
+/// The scene's up axis (0, 1, 2 for x, y, z) and why: against the emitters' mean normal
+/// when they face mostly along one axis (a ceiling light faces down), else the file's
+/// convention — y for OBJ, z for shellsim's JSON scenes.
+pub fn up_axis(scene: &Scene, file: &Path) -> (usize, &'static str) {
+    let n: glam::DVec3 = scene
+        .patches
+        .iter()
+        .filter(|p| p.emission.is_nonzero())
+        .map(|p| p.area_vector())
+        .sum();
+    if n.length() > 0.0 {
+        let m = n.abs();
+        let a = if m.x >= m.y && m.x >= m.z {
+            0
+        } else if m.y >= m.z {
+            1
+        } else {
+            2
+        };
+        if n.abs()[a] >= 0.9 * n.length() && n[a] < 0.0 {
+            return (a, "the emitters face down along it");
+        }
+    }
+    let obj = file
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if obj {
+        (1, "OBJ files are y-up")
+    } else {
+        (2, "shellsim's JSON scenes are z-up")
+    }
+}
+
 /// A pinhole camera: eye, the point looked at, the up direction, vertical field of view in
 /// degrees.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
@@ -24,18 +57,28 @@ pub struct Camera {
 }
 
 impl Camera {
-    /// From the scene's bounds: inside the room, 1 % of the depth in front of the wall at
-    /// y = hi (the committed scenes are z-up with that wall closing the front), at 40 % of
-    /// the height, looking slightly up at the wall at y = lo (60 % of the height) so the
-    /// ceiling's light is in view, 80° field of view.
-    pub fn default_for(scene: &Scene) -> Camera {
+    /// From the scene's bounds and its up axis `up` (0, 1, 2 for x, y, z; [`up_axis`]):
+    /// inside the room, 1 % of the depth in front of the wall that closes the front (the
+    /// high side of the depth axis — y for z-up scenes, z for y-up ones, as OBJ files look
+    /// down −z), at 40 % of the height, looking slightly up at the far wall (60 % of the
+    /// height) so a ceiling light is in view, 80° field of view.
+    pub fn default_for(scene: &Scene, up: usize) -> Camera {
         let (lo, hi) = (scene.bounds.lo, scene.bounds.hi);
         let c = (lo + hi) * 0.5;
         let ext = hi - lo;
+        let depth = if up == 2 { 1 } else { 2 };
+        let mut eye = c;
+        eye[depth] = hi[depth] - 0.01 * ext[depth];
+        eye[up] = lo[up] + 0.4 * ext[up];
+        let mut look = c;
+        look[depth] = lo[depth];
+        look[up] = lo[up] + 0.6 * ext[up];
+        let mut u = [0.0; 3];
+        u[up] = 1.0;
         Camera {
-            eye: [c.x, hi.y - 0.01 * ext.y, lo.z + 0.4 * ext.z],
-            look: [c.x, lo.y, lo.z + 0.6 * ext.z],
-            up: [0.0, 0.0, 1.0],
+            eye: eye.to_array(),
+            look: look.to_array(),
+            up: u,
             fov: 80.0,
         }
     }
