@@ -123,7 +123,8 @@ fn scene_info_shows_names_warnings_and_the_emitter() {
     assert!(out.stderr.is_empty(), "{}", text(&out.stderr));
     for want in [
         "patches      17 (2 triangles, 15 quads, 1 emitting)",
-        "names        floor 0; ceiling 1; backWall 2; rightWall 3; leftWall 4-5; light 6; shortBox 7-11; tallBox 12-16",
+        "groups       floor 0; ceiling 1; backWall 2; rightWall 3; leftWall 4-5; light 6; shortBox 7-11; tallBox 12-16",
+        "materials    floor 0; ceiling 1; backWall 2; rightWall 3; leftWall 4-5; light 6; shortBox 7-11; tallBox 12-16",
         "warning      material library",
         "warning      1 face is not planar and convex",
     ] {
@@ -462,4 +463,37 @@ fn radiosity_without_an_emitter_names_the_flag() {
     assert!(err.contains("--emitter NAME"), "{err}");
     assert!(err.contains("ceiling, floor, leftWall, light"), "{err}");
     assert!(!out.exists(), "nothing written");
+}
+
+/// A file written the way some exporters write it — `g NAME` after its faces, a group
+/// whose faces change material — is warned about with the lines, and `scene info` lists
+/// groups and materials apart.
+#[test]
+fn names_that_follow_their_faces_are_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("boxes.obj");
+    std::fs::write(
+        &f,
+        "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\n\
+         usemtl white\nf 1 2 3 4\ng shortBox\n\
+         usemtl white\nf 1 2 6 5\nusemtl red\nf 4 3 2 1\ng tallBox\n",
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args(["scene", "info"])
+        .arg(&f)
+        .output()
+        .unwrap();
+    let out = text(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert!(
+        out.contains("1 group or object statement with no face after it (line 14 `tallBox`)"),
+        "{out}"
+    );
+    assert!(
+        out.contains("group `shortBox` spans 2 materials (white, red, from lines 11, 13)"),
+        "{out}"
+    );
+    assert!(out.contains("groups       shortBox 1-2"), "{out}");
+    assert!(out.contains("materials    white 0-1; red 2"), "{out}");
 }

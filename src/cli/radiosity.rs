@@ -104,7 +104,11 @@ fn no_emitter(scene: &crate::scene::Scene, file: &std::path::Path) -> Error {
         format!(
             "make a group or material emit with --emitter NAME (this file's names: {}{})",
             shown.join(", "),
-            if names.len() > shown.len() { ", …" } else { "" }
+            if names.len() > shown.len() {
+                ", …"
+            } else {
+                ""
+            }
         )
     };
     Error::input(

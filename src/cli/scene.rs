@@ -220,9 +220,28 @@ fn info(file: &Path, grid: CellArg, edit: &SceneEditArgs) -> Result<()> {
             .open_at
             .map_or(String::new(), |p| format!(", the first from patch {p}"))
     );
-    let names = scene.names();
-    if !names.is_empty() {
-        crate::output::outln!("names        {}", names_line(&names));
+    // Groups (and objects) apart from materials: a patch has one of each.
+    for (label, of) in [
+        (
+            "groups     ",
+            (|p| p.name.as_deref()) as fn(&crate::scene::Patch) -> Option<&str>,
+        ),
+        ("materials  ", |p| p.material.as_deref()),
+    ] {
+        let mut names: Vec<(&str, Vec<u32>)> = Vec::new();
+        let mut index = std::collections::HashMap::new();
+        for (id, p) in scene.patches.iter().enumerate() {
+            if let Some(n) = of(p) {
+                let k = *index.entry(n).or_insert_with(|| {
+                    names.push((n, Vec::new()));
+                    names.len() - 1
+                });
+                names[k].1.push(id as u32);
+            }
+        }
+        if !names.is_empty() {
+            crate::output::outln!("{label}  {}", names_line(&names));
+        }
     }
     for w in &loaded.warnings {
         crate::output::outln!("warning      {}", crate::error::shown(w));

@@ -168,6 +168,9 @@ struct Prepared {
     names: Vec<String>,
     /// The text handed to tobj.
     text: String,
+    /// Warnings about names: a `g`/`o` with no face after it (an exporter that writes the
+    /// group after its faces), a group whose faces use several materials.
+    name_warnings: Vec<String>,
 }
 
 /// The `f`/`l` statements of `text` with their lines and names, and the text handed to
@@ -188,6 +191,9 @@ fn prepare(text: &str) -> Prepared {
         }))
     };
     let (mut group, mut material) = (None, None);
+    // The open `g`/`o` statement (its line and name) while no face has followed it yet.
+    let mut pending: Option<(usize, String)> = None;
+    let mut faceless: Vec<(usize, String)> = Vec::new();
     let mut out = String::with_capacity(text.len());
     for (i, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
@@ -202,13 +208,22 @@ fn prepare(text: &str) -> Prepared {
             Some("vt") | Some("vn") => {}
             first => {
                 match first {
-                    Some(kw @ ("f" | "l")) => elements.push(Element {
-                        line: i + 1,
-                        is_face: kw == "f",
-                        group,
-                        material,
-                    }),
-                    Some("g" | "o") => group = intern(rest()),
+                    Some(kw @ ("f" | "l")) => {
+                        pending = None;
+                        elements.push(Element {
+                            line: i + 1,
+                            is_face: kw == "f",
+                            group,
+                            material,
+                        })
+                    }
+                    Some("g" | "o") => {
+                        faceless.extend(pending.take());
+                        group = intern(rest());
+                        if group.is_some() {
+                            pending = Some((i + 1, rest().to_string()));
+                        }
+                    }
                     Some("usemtl") => material = intern(rest()),
                     _ => {}
                 }
@@ -217,10 +232,54 @@ fn prepare(text: &str) -> Prepared {
         }
         out.push('\n');
     }
+    faceless.extend(pending);
+    let mut name_warnings = Vec::new();
+    if !faceless.is_empty() {
+        let shown: Vec<String> = faceless
+            .iter()
+            .take(4)
+            .map(|(l, n)| format!("line {l} `{}`", crate::error::shown(n)))
+            .collect();
+        name_warnings.push(format!(
+            "{} group or object statement{} with no face after {} ({}{}): a face takes the name of the last `g`/`o` before it, so if the file names its faces after them, every name is off by one",
+            faceless.len(),
+            if faceless.len() == 1 { "" } else { "s" },
+            if faceless.len() == 1 { "it" } else { "them" },
+            shown.join(", "),
+            if faceless.len() > 4 { ", …" } else { "" }
+        ));
+    }
+    // Groups whose faces use several materials, with the lines where the material changes.
+    let mut spans: Vec<(usize, Vec<usize>, Vec<usize>)> = Vec::new(); // group, materials, lines
+    for e in elements.iter().filter(|e| e.is_face) {
+        let (Some(g), Some(m)) = (e.group, e.material) else {
+            continue;
+        };
+        match spans.iter_mut().find(|s| s.0 == g) {
+            Some(s) if !s.1.contains(&m) => {
+                s.1.push(m);
+                s.2.push(e.line);
+            }
+            Some(_) => {}
+            None => spans.push((g, vec![m], vec![e.line])),
+        }
+    }
+    for (g, ms, lines) in spans.iter().filter(|s| s.1.len() > 1).take(4) {
+        let ms: Vec<&str> = ms.iter().map(|&m| names[m].as_str()).collect();
+        let lines: Vec<String> = lines.iter().map(|l| l.to_string()).collect();
+        name_warnings.push(format!(
+            "group `{}` spans {} materials ({}, from lines {}): `--emitter` and `--source` by the group name take all of them",
+            crate::error::shown(&names[*g]),
+            ms.len(),
+            ms.join(", "),
+            lines.join(", ")
+        ));
+    }
     Prepared {
         elements,
         names,
         text: out,
+        name_warnings,
     }
 }
 
@@ -332,6 +391,7 @@ pub fn import_bytes(
         elements,
         names,
         text,
+        name_warnings,
     } = prepare(&text);
 
     let dir = path.parent().unwrap_or(Path::new(""));
@@ -520,6 +580,7 @@ pub fn import_bytes(
     if report.mended_faces > 0 {
         report.warnings.push(mended_warning(&report));
     }
+    report.warnings.extend(name_warnings);
     report.patches = patches.len();
     if patches.is_empty() {
         let what = if report.skipped_lines > 0 {
