@@ -402,7 +402,8 @@ fn png_shows_the_emitter_brightest(file: &str) {
         shellsim::config::cell_size(shellsim::config::built_in().machine.cell_size, scene.size()),
     )
     .unwrap();
-    let hits = render::cast(&tracer, &Camera::default_for(&scene), 120, 90);
+    let up = render::up_axis(&scene, &common::scene_path(file)).0;
+    let hits = render::cast(&tracer, &Camera::default_for(&scene, up), 120, 90);
     let lum = |p: &image::Rgb<u8>| p.0.iter().map(|&c| c as u32).sum::<u32>();
     let (k, _) = img
         .pixels()
