@@ -20,7 +20,8 @@ const COMPARED: [&str; 7] = [
     "front-cost-scene1-0.svg",
 ];
 
-/// A tiny study (12 points, scene1 at ratio 1, a small reference).
+/// A tiny study (7 points: float once — it reads neither knob — fixed per width, the
+/// machine per width and cluster count; scene1 at ratio 1, a small reference).
 fn tiny_spec(extra: &str) -> String {
     format!(
         "reference_rays = 20000\nscene = {:?}\nlevel = [\"float\", \"fixed\", \"machine\"]\nfrac_bits = [9, 12]\nmachine.clusters = [1, 2]\n{extra}",
@@ -106,7 +107,23 @@ fn two_runs_are_identical() {
     ok(&run(spec, &again, None, Some(2)), "the second run");
     same_results(out, &again, "two runs");
     let rows = std::fs::read_to_string(out.join("points.csv")).unwrap();
-    assert_eq!(rows.lines().count(), 13, "a header and 12 points:\n{rows}");
+    assert_eq!(rows.lines().count(), 8, "a header and 7 points:\n{rows}");
+    // The float point carries neither knob; the fixed points the width only.
+    let levels: Vec<&str> = rows
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(3).unwrap_or(""))
+        .collect();
+    assert_eq!(
+        levels.iter().filter(|l| **l == "float").count(),
+        1,
+        "{rows}"
+    );
+    assert_eq!(
+        levels.iter().filter(|l| **l == "fixed").count(),
+        2,
+        "{rows}"
+    );
 }
 
 #[test]
@@ -161,7 +178,7 @@ fn a_shard_is_taken_from_slurm_when_not_given() {
         .skip(1)
         .map(|l| l.split(',').next().unwrap())
         .collect();
-    assert_eq!(ids, ["1", "6", "11"], "shard 1/5 of 12 points");
+    assert_eq!(ids, ["1", "6"], "shard 1/5 of 7 points");
     assert!(!out.join("report.md").exists(), "a shard writes no report");
 }
 
@@ -173,7 +190,7 @@ fn an_interrupted_run_resumes_without_recomputing() {
     // As if killed after ten points: two point files and the tables are gone.
     for f in [
         "points/000003.json",
-        "points/000010.json",
+        "points/000006.json",
         "points.csv",
         "report.md",
     ] {
@@ -182,7 +199,7 @@ fn an_interrupted_run_resumes_without_recomputing() {
     let o = run(spec, &dir, None, Some(2));
     ok(&o, "the resumed run");
     let said = String::from_utf8_lossy(&o.stdout);
-    assert!(said.contains("2 measured, 10 already there"), "{said}");
+    assert!(said.contains("2 measured, 5 already there"), "{said}");
     same_results(out, &dir, "resumed");
 }
 
@@ -328,7 +345,7 @@ fn a_missing_shard_is_named() {
     );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("6 of 12 points are in no shard"), "{err}");
+    assert!(err.contains("3 of 7 points are in no shard"), "{err}");
 }
 
 #[test]
@@ -369,5 +386,28 @@ fn the_slurm_scripts_run_the_shards_then_the_merge() {
     assert!(
         submit.contains("--dependency=afterok:\"$array\""),
         "{submit}"
+    );
+}
+
+/// `source` takes a name as every command does: the public box's `light` is patch 6; a
+/// name that names nothing is refused at its line.
+#[test]
+fn a_source_by_name() {
+    let obj = common::scene_path("cornell-public.obj");
+    let spec = spec_file(&format!(
+        "reference_rays = 2000\nscene = {:?}\nsource = \"light\"\nlevel = \"float\"\n",
+        obj.display().to_string()
+    ));
+    let out = keep().join("named");
+    ok(&run(&spec, &out, None, Some(1)), "a source by name");
+    let rows = std::fs::read_to_string(out.join("points.csv")).unwrap();
+    let row = rows.lines().nth(1).unwrap();
+    assert_eq!(row.split(',').nth(2), Some("6"), "{rows}");
+    refused(
+        &format!(
+            "scene = {:?}\nsource = \"lamp\"\n",
+            obj.display().to_string()
+        ),
+        &["line 2", "source", "lamp"],
     );
 }

@@ -349,8 +349,15 @@ fn one_knob(g: &Group, p: &PointResult, axes: &[&Axis], a: Against) -> Vec<Strin
                 (_, None) => format!(", no {} at that level", a.name()),
                 _ => String::new(),
             };
+            // A change of error within the estimator's sampling error is no effect.
+            let sigma = p.sampling_err.max(q.point.sampling_err);
+            let noise = if (e1 - e0).abs() <= sigma {
+                format!(" (the error's change is within the sampling error {sigma:.1e}: no effect)")
+            } else {
+                String::new()
+            };
             out.push(format!(
-                "`{}` {} → {} (#{}): error {:.3e} → {:.3e} ({ratio}){cost}",
+                "`{}` {} → {} (#{}): error {:.3e} → {:.3e} ({ratio}){cost}{noise}",
                 axis.key, mine.value, qv, q.point.index, e0, e1
             ));
         }

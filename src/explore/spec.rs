@@ -20,13 +20,15 @@
 //! machine.clusters = [1, 2]  # (a key given here replaces the top-level one)
 //! ```
 //!
-//! Keys besides the configuration's: `scene`, `source` (default 0), `level` (`float`,
+//! Keys besides the configuration's: `scene`, `source` (an id or a name; default 0), `level` (`float`,
 //! `fixed`, `machine`; default `machine`), `ratio` (969 × ratio rays, default 1) or `rays`,
 //! `directions` (`rings`, `malley`, `random`), `seed` (default 1), `cell`
 //! (`machine.cell_size`), `shell_radius` (`machine.shell_radius`), `frac_bits` (both
 //! `datapath.frac_bits` and `datapath.t_frac_bits`). The points are the cartesian product of
 //! the lists in the order the keys are written (the first varies slowest), block by block;
-//! `[[point]]` blocks are single points (every value a scalar).
+//! `[[point]]` blocks are single points (every value a scalar). A knob a point's level does
+//! not read (the float model reads only the rays and the grid, the fixed-point model also
+//! the datapath) is left out of that point, so it does not multiply the point.
 
 use crate::config::{self, ConfigSource};
 use crate::error::{Error, Result};
@@ -531,6 +533,7 @@ pub fn parse(text: &str, file: &Path) -> Result<Spec> {
         scenes: Vec::new(),
         points: Vec::new(),
         axes: Vec::new(),
+        seen: std::collections::HashSet::new(),
     };
     for es in &products {
         if !es.iter().any(|e| e.key == "scene") {
@@ -604,6 +607,20 @@ struct Builder<'a> {
     scenes: Vec<SpecScene>,
     points: Vec<Point>,
     axes: Vec<Axis>,
+    /// The points made so far, by what they run: a knob the point's level does not read
+    /// does not make another point.
+    seen: std::collections::HashSet<String>,
+}
+
+/// Whether a point of `level` reads knob `key`: the float model reads the rays and the
+/// grid, the fixed-point model also the datapath, the machine everything.
+fn reads(level: Model, key: &str) -> bool {
+    match key {
+        "scene" | "source" | "level" | "ratio" | "rays" | "directions" | "seed" | "cell"
+        | "machine.cell_size" => true,
+        k if k == "frac_bits" || k.starts_with("datapath.") => level != Model::Float,
+        _ => level == Model::Machine,
+    }
 }
 
 impl Builder<'_> {
@@ -625,7 +642,16 @@ impl Builder<'_> {
                 x => Err(p.err(e.line, &e.key, format!("{x} is not a string"))),
             }
         };
-        let (mut scene, mut source, mut level) = (None, 0u32, Model::Machine);
+        let (mut scene, mut source, mut level) = (None, None::<(&Entry, &Val)>, Model::Machine);
+        // The level first: a knob it does not read is left out of the point.
+        let reads_level = chosen
+            .iter()
+            .find(|(e, _)| e.key == "level")
+            .and_then(|(_, v)| match v {
+                Val::Str(s) => Model::parse(s),
+                _ => None,
+            })
+            .unwrap_or(Model::Machine);
         let (mut ratio, mut rays) = (None::<(usize, &Entry)>, None::<(usize, &Entry)>);
         let (mut directions, mut seed) = (Directions::Rings, 1u64);
         let mut table = toml::Value::try_from(self.base).expect("a configuration serializes");
@@ -661,7 +687,7 @@ impl Builder<'_> {
                     };
                     scene = Some((i, e));
                 }
-                "source" => source = int(e, v, 0, u32::MAX as i64)? as u32,
+                "source" => source = Some((e, v)),
                 "level" => {
                     let s = string(e, v)?;
                     level = Model::parse(&s).ok_or_else(|| {
@@ -690,6 +716,7 @@ impl Builder<'_> {
                     })?;
                 }
                 "seed" => seed = int(e, v, 0, i64::MAX)? as u64,
+                key if !reads(reads_level, key) => {}
                 key => {
                     let targets: Vec<String> = match key {
                         "cell" => vec!["machine.cell_size".into()],
@@ -707,6 +734,23 @@ impl Builder<'_> {
             }
         }
         let (scene, scene_entry) = scene.expect("checked: every product has a scene");
+        // A source by id or by name (a group, object or material naming one patch).
+        let source = match source {
+            None => 0,
+            Some((e, Val::Str(name))) => {
+                let sc = &self.scenes[scene];
+                crate::scene::PatchRef::Name(name.clone())
+                    .resolve(&sc.scene, &sc.path)
+                    .map_err(|err| {
+                        let what = match err {
+                            Error::Input { what, .. } | Error::Param { what, .. } => what,
+                            err => err.to_string(),
+                        };
+                        p.err(e.line, &e.key, what)
+                    })?
+            }
+            Some((e, v)) => int(e, v, 0, u32::MAX as i64)? as u32,
+        };
         let rays = match (ratio, rays) {
             (Some(_), Some((_, e))) => {
                 return Err(p.err(e.line, "rays", "give rays or ratio, not both"))
@@ -718,6 +762,7 @@ impl Builder<'_> {
         // A scene is named by its name, not by the path the spec gives.
         let knobs: Vec<Knob> = chosen
             .iter()
+            .filter(|(e, _)| reads(level, &e.key))
             .map(|(e, v)| Knob {
                 key: e.key.clone(),
                 value: if e.key == "scene" {
@@ -807,7 +852,14 @@ impl Builder<'_> {
                 what,
             ));
         }
-        self.points.push(pt);
+        let what = format!(
+            "{scene}|{source}|{}|{rays}|{directions:?}|{seed}|{}",
+            level.name(),
+            pt.label()
+        );
+        if self.seen.insert(what) {
+            self.points.push(pt);
+        }
         Ok(())
     }
 }
