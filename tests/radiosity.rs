@@ -606,3 +606,67 @@ fn compare_fails_beyond_the_noise_naming_the_patches() {
         "{e}"
     );
 }
+
+/// A matrix whose rays cannot fit the memory limit is refused before anything is
+/// allocated (exit 2, naming `--rays`, the estimate and the limit), and nothing is written;
+/// one that fits announces its plan and the size of the `.mtx` before writing it.
+#[test]
+fn matrix_memory_is_estimated_and_announced() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.mtx");
+    let scene = common::scene_path("scene2.json");
+    let o = Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args([
+            "matrix",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--model",
+            "float",
+        ])
+        .args(["--rays", "20000000", "--sources", "0..1", "--out"])
+        .arg(&out)
+        .env("SHELLSIM_MAX_MEMORY", "1G")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--rays 20000000"), "{err}");
+    assert!(err.contains("more than the limit of 1.1 GB"), "{err}");
+    assert!(!out.exists());
+    let o = shellsim(
+        &[
+            "matrix",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--model",
+            "float",
+            "--sources",
+            "0..10",
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        "2",
+    );
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(o.status.code(), Some(0), "{said}");
+    assert!(said.contains("memory: about "), "{said}");
+    let bytes = std::fs::metadata(&out).unwrap().len() as f64;
+    let announced = said
+        .lines()
+        .find_map(|l| l.strip_prefix(&format!("writing {}: ", out.display())))
+        .unwrap_or_else(|| panic!("no writing line: {said}"));
+    // "N nonzeros, about 12.3 kB": the estimate within 25 % of the file.
+    let (num, unit) = announced
+        .split("about ")
+        .nth(1)
+        .and_then(|a| a.split_once(' '))
+        .unwrap();
+    let scale = match unit {
+        "B" => 1.0,
+        "kB" => 1e3,
+        "MB" => 1e6,
+        _ => 1e9,
+    };
+    let est = num.parse::<f64>().unwrap() * scale;
+    assert!((est / bytes - 1.0).abs() < 0.25, "{est} vs {bytes}");
+}

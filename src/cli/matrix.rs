@@ -3,6 +3,7 @@
 
 use super::args::{MatrixRaysArgs, SceneFileArg};
 use crate::error::Result;
+use crate::limits::human;
 use crate::output::{check_outputs, outln, Output};
 use crate::radiosity::matrix::{self, Model, Summary};
 use std::path::PathBuf;
@@ -31,6 +32,15 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
     let scene = a.scene.load()?;
     let cfg = a.rays.machine.load()?;
     let spec = a.rays.spec(a.model, scene.patches.len())?;
+    let (rays_bytes, rows_bytes) = matrix::memory_estimate(&spec, scene.patches.len(), 1);
+    matrix::check_memory(&spec, scene.patches.len(), 1)?;
+    outln!(
+        "memory: about {} planned (rays in flight {}, rows {}) of the {} limit",
+        human(rays_bytes + rows_bytes),
+        human(rays_bytes),
+        human(rows_bytes),
+        human(crate::limits::max_memory()?)
+    );
     let start = std::time::Instant::now();
     let m = matrix::compute(&scene, &a.scene.scene, &cfg, &spec, true)?;
     let wall = start.elapsed().as_secs_f64();
@@ -70,7 +80,7 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
         "writing {}: {} nonzeros, about {}",
         a.out.display(),
         summary.nonzeros,
-        crate::limits::human(m.matrix_market_estimate())
+        human(m.matrix_market_estimate())
     );
     matrix::write(&a.out, &m, &summary)?;
     outln!(
