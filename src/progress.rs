@@ -34,6 +34,29 @@ impl Progress {
         }
     }
 
+    /// A counter of work whose total is not known (simulated cycles): the count and the
+    /// rate, shown as [`Progress::new`]'s bar is.
+    pub fn counter(what: &str) -> Self {
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
+        bar.set_style(
+            ProgressStyle::with_template("{msg:>10} {human_pos} ({per_sec}) {elapsed}")
+                .expect("a valid template"),
+        );
+        bar.set_message(what.to_string());
+        Progress {
+            bar,
+            start: Instant::now(),
+            shown: false,
+            terminal: std::io::stderr().is_terminal() && std::env::var_os("CI").is_none(),
+        }
+    }
+
+    /// Sets the work done to `n`.
+    pub fn set(&mut self, n: u64) {
+        let d = n.saturating_sub(self.bar.position());
+        self.inc(d);
+    }
+
     /// Adds `n` units of work done.
     pub fn inc(&mut self, n: u64) {
         self.bar.inc(n);

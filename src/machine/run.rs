@@ -183,6 +183,18 @@ pub fn simulate(
     spec: &RunSpec,
     probe: Option<&mut dyn Probe>,
 ) -> Result<RunOutput> {
+    simulate_reporting(input, scene_name, cfg, spec, probe, false)
+}
+
+/// As [`simulate`], with a counter of simulated cycles on a terminal when `progress`.
+fn simulate_reporting(
+    input: &MachineInput,
+    scene_name: &str,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+    probe: Option<&mut dyn Probe>,
+    progress: bool,
+) -> Result<RunOutput> {
     let MachineInput {
         host,
         records,
@@ -202,9 +214,18 @@ pub fn simulate(
         records.len(),
     ))?;
     let mut machine = Machine::new(hw, &host.scene, records, sectors, spec.source);
+    let mut bar = progress.then(|| crate::progress::Progress::counter("cycles"));
+    let mut report = |c: u64| {
+        if let Some(b) = bar.as_mut() {
+            b.set(c)
+        }
+    };
     machine
-        .run(spec.order, probe)
+        .run_reporting(spec.order, probe, Some(&mut report))
         .map_err(|d| Error::Check(d.to_string()))?;
+    if let Some(b) = bar {
+        b.finish();
+    }
     let wall = start.elapsed().as_secs_f64();
     let hits = machine.hits();
     let reference: Vec<Option<FixedHit>> = records
@@ -363,7 +384,8 @@ pub fn execute(
     };
     let started = std::time::Instant::now();
     let probe = writer.as_mut().map(|w| w as &mut dyn Probe);
-    let out = run(scene, file, cfg, spec, probe)?;
+    let prep = prepare(scene, file, cfg, spec)?;
+    let out = simulate_reporting(&prep.input(), &scene.name, cfg, spec, probe, true)?;
     let waveform = match writer {
         Some(w) => {
             let summary = w.finish()?;

@@ -219,6 +219,8 @@ struct Bench<'a> {
     reference: Vec<f64>,
     float: Vec<f64>,
     float_hits: Vec<Option<u32>>,
+    /// Machine runs so far, counted on a terminal (`size` runs the machine dozens of times).
+    progress: std::cell::RefCell<crate::progress::Progress>,
 }
 
 impl Bench<'_> {
@@ -269,7 +271,9 @@ impl Bench<'_> {
             ratio: self.spec.ratio,
             order: TickOrder::Forward,
         };
-        run(self.scene, self.file, cfg, &spec, None)
+        let out = run(self.scene, self.file, cfg, &spec, None);
+        self.progress.borrow_mut().inc(1);
+        out
     }
 
     /// A full measurement of `cfg`: its error (from the machine's hits), cycles, mismatches
@@ -411,6 +415,7 @@ pub fn size(
         reference,
         float,
         float_hits,
+        progress: std::cell::RefCell::new(crate::progress::Progress::counter("machine runs")),
     };
 
     // 1. Fractional bits: bisection over real runs of the fixed-point model.
@@ -727,6 +732,7 @@ pub fn size(
         )));
     }
     let base_measured = bench.measure(&resolved)?;
+    bench.progress.into_inner().finish();
     Ok(SizeReport {
         scene: scene.name.clone(),
         spec: spec.clone(),

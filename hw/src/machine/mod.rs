@@ -45,6 +45,9 @@ pub enum TickOrder {
     Shuffled(u64),
 }
 
+/// Cycles between two calls of [`Machine::run_reporting`]'s report.
+pub const REPORT_CYCLES: u64 = 1 << 16;
+
 /// The machine.
 pub struct Machine<'a> {
     pub cfg: MachineConfig,
@@ -259,13 +262,27 @@ impl<'a> Machine<'a> {
     }
 
     /// Runs to the end; `probe` sees every unit's signals after every edge that changed them.
-    pub fn run(
+    pub fn run(&mut self, order: TickOrder, probe: Option<&mut dyn Probe>) -> Result<(), Deadlock> {
+        self.run_reporting(order, probe, None)
+    }
+
+    /// As [`Machine::run`], calling `report` with the cycle count every
+    /// [`REPORT_CYCLES`] cycles or so (for a progress display; it does not touch the model).
+    pub fn run_reporting(
         &mut self,
         order: TickOrder,
         mut probe: Option<&mut dyn Probe>,
+        mut report: Option<&mut dyn FnMut(u64)>,
     ) -> Result<(), Deadlock> {
+        let mut next_report = self.cycle + REPORT_CYCLES;
         loop {
             self.tick(order);
+            if self.cycle >= next_report {
+                if let Some(r) = report.as_deref_mut() {
+                    r(self.cycle);
+                }
+                next_report = self.cycle + REPORT_CYCLES;
+            }
             if let Some(p) = probe.as_deref_mut() {
                 self.probe(p);
                 if p.stop() {
