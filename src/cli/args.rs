@@ -208,9 +208,6 @@ pub struct MatrixRaysArgs {
     /// Seed of the ray origins (and of random directions).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Only these sources, FROM..TO (TO excluded); default all.
-    #[arg(long, value_name = "FROM..TO", value_parser = parse_range)]
-    pub sources: Option<(u32, u32)>,
     #[command(flatten)]
     pub machine: MachineArgs,
     /// The machine's clock for its time in the summary, MHz.
@@ -233,13 +230,15 @@ impl MatrixRaysArgs {
         }
     }
 
-    /// The matrix specification for `model` over a scene of `n` patches.
+    /// The matrix specification for `model` over the rows `sources` (FROM, TO excluded;
+    /// all of a scene of `n` patches by default).
     pub fn spec(
         &self,
         model: crate::radiosity::matrix::Model,
+        sources: Option<(u32, u32)>,
         n: usize,
     ) -> Result<crate::radiosity::matrix::MatrixSpec> {
-        let (a, b) = self.sources.unwrap_or((0, n as u32));
+        let (a, b) = sources.unwrap_or((0, n as u32));
         Ok(crate::radiosity::matrix::MatrixSpec {
             model,
             rays: self.rays_per_source()?,
@@ -251,7 +250,7 @@ impl MatrixRaysArgs {
 }
 
 /// Parses `FROM..TO` (patch ids).
-fn parse_range(s: &str) -> std::result::Result<(u32, u32), String> {
+pub fn parse_range(s: &str) -> std::result::Result<(u32, u32), String> {
     parse_pair(s, "FROM..TO", "a patch id")
 }
 

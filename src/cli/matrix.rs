@@ -1,7 +1,7 @@
 //! `shellsim matrix`: the whole form-factor matrix on one model, as Matrix Market plus a
 //! JSON summary.
 
-use super::args::{MatrixRaysArgs, SceneFileArg};
+use super::args::{parse_range, MatrixRaysArgs, SceneFileArg};
 use crate::error::Result;
 use crate::limits::human;
 use crate::output::{check_outputs, outln, Output};
@@ -18,6 +18,9 @@ pub struct MatrixArgs {
     pub model: Model,
     #[command(flatten)]
     pub rays: MatrixRaysArgs,
+    /// Only these rows (sources), FROM..TO, TO excluded; default all.
+    #[arg(long, value_name = "FROM..TO", value_parser = parse_range)]
+    pub sources: Option<(u32, u32)>,
     /// The matrix (Matrix Market, .mtx); its summary goes beside it as .json.
     #[arg(long)]
     pub out: PathBuf,
@@ -31,7 +34,7 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
     ])?;
     let scene = a.scene.load()?;
     let cfg = a.rays.machine.load()?;
-    let spec = a.rays.spec(a.model, scene.patches.len())?;
+    let spec = a.rays.spec(a.model, a.sources, scene.patches.len())?;
     let (rays_bytes, rows_bytes) = matrix::memory_estimate(&spec, scene.patches.len(), 1);
     matrix::check_memory(&spec, scene.patches.len(), 1)?;
     outln!(

@@ -31,7 +31,7 @@ pub struct RadiosityArgs {
     #[arg(long, value_enum, default_value_t = System::Gather)]
     pub system: System,
     /// Stop when the residual max |E + ρH − B| / max E is at most this.
-    #[arg(long, default_value_t = SolveParams::default().tol)]
+    #[arg(long, default_value = "1e-12")]
     pub tol: f64,
     /// Most Gauss-Seidel sweeps (shooting: this × patches shots).
     #[arg(long, default_value_t = SolveParams::default().max_iter)]
@@ -131,7 +131,7 @@ pub fn run(a: &RadiosityArgs) -> Result<()> {
     };
     let compare = a.compare.as_deref().map(parse_compare).transpose()?;
     let cfg = a.rays.machine.load()?;
-    let spec = a.rays.spec(a.model, scene.patches.len())?;
+    let spec = a.rays.spec(a.model, None, scene.patches.len())?;
     let job = JobSpec {
         matrix: spec,
         matrix_file: a.matrix.clone(),
