@@ -145,7 +145,7 @@ pub const AUTO_CELLS_PER_SCALE: f64 = 20.0;
 pub const AUTO_CELLS_MAX: f64 = 512.0;
 
 /// What the `auto` lengths are derived from: the scene's largest extent and its patch
-/// count ([`crate::scene::Scene::size`]).
+/// count (`Scene::size`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SceneSize {
     /// The largest extent of the scene's bounds.

@@ -866,7 +866,7 @@ pub fn markdown(r: &SizeReport) -> String {
     s.push_str(&row("base", &r.base));
     let m = &r.machine.machine;
     s.push_str(&format!(
-        "\nThe sized machine: {} clusters × {} CTUs, coordinates Q{}.{}, t Q{}.{}, ray buffer {}, patch buffer {}, request queue {}.\n",
+        "\nThe sized machine: {} clusters × {} CTUs, coordinates Q{}.{}, t Q{}.{}, ray buffer {}, patch buffer {}, request queue {}, grid cells of {:.6} (scene units: `machine.cell_size`, `auto` sizes the grid to the scene, `--cell` sets it).\n",
         m.clusters,
         m.ctus_per_cluster,
         r.machine.datapath.coord_int_bits,
@@ -875,7 +875,8 @@ pub fn markdown(r: &SizeReport) -> String {
         r.machine.datapath.t_frac_bits,
         m.ray_buffer_capacity,
         m.patch_buffer_capacity,
-        m.request_queue_capacity
+        m.request_queue_capacity,
+        m.cell_size.value()
     ));
     s
 }
