@@ -101,9 +101,29 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// [`read_input`] as UTF-8 text; text that is not UTF-8 is unreadable input.
-pub fn read_input_string(path: &Path) -> Result<String> {
-    String::from_utf8(read_input(path)?).map_err(|_| {
+/// [`read_input`] for a file that must be a regular file (a material library, a point file,
+/// a matrix's summary): a FIFO, device or socket is refused before it is opened, so that a
+/// FIFO with no writer cannot block the run.
+pub fn read_regular(path: &Path) -> Result<Vec<u8>> {
+    let m = std::fs::metadata(path).map_err(|e| Error::unreadable(path, e))?;
+    if !m.is_file() {
+        let what = if m.is_dir() {
+            "a directory"
+        } else {
+            "a FIFO, device or socket"
+        };
+        return Err(Error::input(
+            path,
+            "file",
+            format!("is {what}, not a regular file"),
+        ));
+    }
+    read_input(path)
+}
+
+/// `bytes` as UTF-8 text, or unreadable input in `path`.
+pub fn utf8(path: &Path, bytes: Vec<u8>) -> Result<String> {
+    String::from_utf8(bytes).map_err(|_| {
         Error::unreadable(
             path,
             std::io::Error::new(
@@ -112,6 +132,11 @@ pub fn read_input_string(path: &Path) -> Result<String> {
             ),
         )
     })
+}
+
+/// [`read_input`] as UTF-8 text; text that is not UTF-8 is unreadable input.
+pub fn read_input_string(path: &Path) -> Result<String> {
+    utf8(path, read_input(path)?)
 }
 
 /// Refuses a job whose memory `estimate` (bytes) is past [`max_memory`]: `Error::Param`

@@ -328,3 +328,173 @@ fn obj_vertex_outside_given_bounds() {
     assert_eq!((scene.patches.len(), report.faces), (4, 4));
     assert_eq!(scene.bounds.hi, glam::DVec3::new(3.0, 3.0, 1.0));
 }
+
+// --- Hostile inputs through the whole CLI, each with a time limit (a hang is a failure).
+
+/// How a run of the binary ended: its exit status (`None` when killed after the time
+/// limit), standard output and standard error.
+struct Ran {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+impl Ran {
+    fn shown(&self) -> String {
+        format!(
+            "status {:?}\n--- stdout\n{}--- stderr\n{}",
+            self.code, self.stdout, self.stderr
+        )
+    }
+
+    /// Exit status 2, an `error:` line holding every string of `want`, no panic.
+    fn refused(&self, want: &[&str]) {
+        assert_eq!(self.code, Some(2), "{}", self.shown());
+        assert!(self.stderr.starts_with("error: "), "{}", self.shown());
+        assert!(!self.stderr.contains("panicked"), "{}", self.shown());
+        for w in want {
+            assert!(
+                self.stderr.contains(w),
+                "stderr lacks {w:?}\n{}",
+                self.shown()
+            );
+        }
+    }
+}
+
+/// Runs `shellsim ARGS` in `dir` (one thread), killed after `secs` seconds.
+fn run_in(dir: &Path, args: &[&str], secs: u64) -> Ran {
+    let out = dir.join(".stdout");
+    let err = dir.join(".stderr");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args(args)
+        .current_dir(dir)
+        .env("RAYON_NUM_THREADS", "1")
+        .stdin(std::process::Stdio::null())
+        .stdout(std::fs::File::create(&out).unwrap())
+        .stderr(std::fs::File::create(&err).unwrap())
+        .spawn()
+        .expect("the shellsim binary runs");
+    let start = std::time::Instant::now();
+    let code = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s.code();
+        }
+        if start.elapsed().as_secs() >= secs {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let read = |p: &Path| String::from_utf8_lossy(&std::fs::read(p).unwrap()).into_owned();
+    Ran {
+        code,
+        stdout: read(&out),
+        stderr: read(&err),
+    }
+}
+
+/// A committed scene's absolute path.
+fn scene_file(name: &str) -> String {
+    format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `radiosity --matrix FILE` on cornell.json (18 patches) with `text` as FILE.
+fn radiosity_matrix(text: &str) -> (tempfile::TempDir, Ran) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("m.mtx"), text).unwrap();
+    let r = run_in(
+        dir.path(),
+        &[
+            "radiosity",
+            "--scene",
+            &scene_file("cornell.json"),
+            "--matrix",
+            "m.mtx",
+            "--size",
+            "8x8",
+            "--out",
+            "out",
+        ],
+        30,
+    );
+    (dir, r)
+}
+
+const MTX_HEAD: &str = "%%MatrixMarket matrix coordinate real general\n";
+
+#[test]
+fn mtx_index_beyond_the_size() {
+    // Before: exit 101, sprs panicked on the index.
+    let (d, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 2\n1 2 0.1\n19 1 0.5\n"));
+    r.refused(&["m.mtx", "line 4", "row 19 is out of range (1..=18)"]);
+    assert!(!d.path().join("out").exists(), "{}", r.shown());
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1\n1 0 0.5\n"));
+    r.refused(&["m.mtx", "line 3", "column 0 is out of range"]);
+}
+
+#[test]
+fn mtx_header_only_ends() {
+    // Before: a loop at 100 % CPU, never ending.
+    let (_, r) = radiosity_matrix(MTX_HEAD);
+    r.refused(&["m.mtx", "line 1", "size line"]);
+    let (_, r) = radiosity_matrix("");
+    r.refused(&["m.mtx", "line 1", "empty"]);
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}% a comment\n"));
+    r.refused(&["m.mtx", "line 2", "size line"]);
+}
+
+#[test]
+fn mtx_huge_declared_sizes_are_refused_without_allocating() {
+    // Before: 10^12 entries aborted allocating 8 TB.
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1000000000000\n1 1 0.5\n"));
+    r.refused(&["m.mtx", "line 2", "1000000000000 entries", "(324)"]);
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}4000000000 4000000000 1\n1 1 0.5\n"));
+    r.refused(&["m.mtx", "line 2", "4000000000×4000000000", "18 patches"]);
+    let big = "9".repeat(300);
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 {big}\n"));
+    r.refused(&["m.mtx", "line 2", "not a count of entries", "…"]);
+    assert!(
+        r.stderr.len() < 200,
+        "a 300-digit number printed whole: {}",
+        r.shown()
+    );
+}
+
+#[test]
+fn mtx_entry_count_checked_both_ways() {
+    // Before: a header declaring fewer entries than the file holds dropped the rest, exit 0.
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1\n1 2 0.1\n1 3 0.1\n"));
+    r.refused(&["m.mtx", "line 4", "past the 1"]);
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 3\n1 2 0.1\n1 3 0.1\n"));
+    r.refused(&["m.mtx", "line 4", "declares 3 entries", "after 2"]);
+}
+
+#[test]
+fn mtx_malformed_lines_and_headers() {
+    for (text, want) in [
+        (
+            "%%MatrixMarket matrix array real general\n18 18\n",
+            "line 1",
+        ),
+        ("hello\n", "not a Matrix Market header"),
+        (&format!("{MTX_HEAD}18 18\n") as &str, "three counts"),
+        (&format!("{MTX_HEAD}18 18 1\n1 2\n"), "row column value"),
+        (
+            &format!("{MTX_HEAD}18 18 1\n1 2 x\n"),
+            "\"x\" is not a number",
+        ),
+        (
+            &format!("{MTX_HEAD}18 18 1\n1 2 1.5\n"),
+            "not a form factor",
+        ),
+        (&format!("{MTX_HEAD}18 18 1\n-1 2 0.5\n"), "not an index"),
+    ] {
+        let (_, r) = radiosity_matrix(text);
+        r.refused(&["m.mtx", want]);
+    }
+    // The same file, valid: exit 0 (the test can fail both ways).
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1\n1 2 0.25\n"));
+    assert_eq!(r.code, Some(0), "a valid matrix: {}", r.shown());
+}
