@@ -80,9 +80,11 @@ pub fn human(bytes: u64) -> String {
 }
 
 /// Reads the input file `path`, at most [`max_input`] bytes: a longer one (or an endless
-/// device) is bad input naming the limit and how to raise it.
+/// device) is bad input naming the limit and how to raise it. A file that is also one of
+/// the command's outputs is refused first (`output::check_input`).
 pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     let limit = max_input()?;
+    crate::output::check_input(path)?;
     let f = std::fs::File::open(path).map_err(|e| Error::unreadable(path, e))?;
     let mut bytes = Vec::new();
     f.take(limit.saturating_add(1))

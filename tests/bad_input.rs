@@ -498,3 +498,178 @@ fn mtx_malformed_lines_and_headers() {
     let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1\n1 2 0.25\n"));
     assert_eq!(r.code, Some(0), "a valid matrix: {}", r.shown());
 }
+
+// --- Outputs checked before any work: an input named as an output, bad paths, modes.
+
+/// `scene import a.obj --out OUT` in a fresh directory holding `a.obj` (a valid box), with
+/// `setup` run on the directory first; returns it, the run, and a.obj's bytes before.
+fn import_to(out: &str, setup: impl FnOnce(&Path)) -> (tempfile::TempDir, Ran) {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = format!("mtllib m.mtl\nusemtl a\n{}", obj_with(""));
+    std::fs::write(dir.path().join("a.obj"), obj).unwrap();
+    std::fs::write(dir.path().join("m.mtl"), "newmtl a\nKd 0.5\n").unwrap();
+    setup(dir.path());
+    let r = run_in(dir.path(), &["scene", "import", "a.obj", "--out", out], 30);
+    (dir, r)
+}
+
+#[test]
+fn an_input_named_as_the_output_is_refused() {
+    // Before: the OBJ was replaced by the JSON scene, exit 0.
+    let (d, r) = import_to("a.obj", |_| {});
+    r.refused(&["--out a.obj", "is the input a.obj", "name another output"]);
+    assert!(std::fs::read_to_string(d.path().join("a.obj"))
+        .unwrap()
+        .starts_with("mtllib"));
+    // Through a symlink, a hard link and `./`.
+    let (d, r) = import_to("link.json", |d| {
+        std::os::unix::fs::symlink("a.obj", d.join("link.json")).unwrap()
+    });
+    r.refused(&["--out link.json", "is the input a.obj"]);
+    assert!(std::fs::read_to_string(d.path().join("a.obj"))
+        .unwrap()
+        .starts_with("mtllib"));
+    let (_, r) = import_to("hard.json", |d| {
+        std::fs::hard_link(d.join("a.obj"), d.join("hard.json")).unwrap()
+    });
+    r.refused(&["is the input a.obj"]);
+    // The material library.
+    let (d, r) = import_to("./m.mtl", |_| {});
+    r.refused(&["--out ./m.mtl", "is the input", "m.mtl"]);
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("m.mtl")).unwrap(),
+        "newmtl a\nKd 0.5\n"
+    );
+    // Another output path is fine (the test can fail both ways).
+    let (d, r) = import_to("b.json", |_| {});
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    assert!(d.path().join("b.json").is_file());
+}
+
+#[test]
+fn a_scene_or_machine_configuration_named_as_the_output_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(scene_file("cornell.json"), d.join("s.json")).unwrap();
+    let before = std::fs::read(d.join("s.json")).unwrap();
+    let r = run_in(
+        d,
+        &[
+            "reference",
+            "--scene",
+            "s.json",
+            "--source",
+            "0",
+            "--rays",
+            "100",
+            "--json",
+            "s.json",
+        ],
+        30,
+    );
+    r.refused(&["--json s.json", "is the input s.json"]);
+    // `matrix --out m.mtx` writes its summary to m.json: the scene there is refused.
+    std::fs::copy(d.join("s.json"), d.join("m.json")).unwrap();
+    let r = run_in(
+        d,
+        &[
+            "matrix", "--scene", "m.json", "--model", "float", "--out", "m.mtx",
+        ],
+        30,
+    );
+    r.refused(&["m.json", "is the input m.json"]);
+    assert!(!d.join("m.mtx").exists(), "{}", r.shown());
+    let toml = shellsim_hw::config::PAPER_TOML;
+    std::fs::write(d.join("c.toml"), toml).unwrap();
+    let r = run_in(
+        d,
+        &[
+            "check", "--scene", "s.json", "--source", "0", "--rays", "100", "--hw", "c.toml",
+            "--json", "c.toml",
+        ],
+        30,
+    );
+    r.refused(&["--json c.toml", "is the input c.toml"]);
+    assert_eq!(std::fs::read_to_string(d.join("c.toml")).unwrap(), toml);
+    assert_eq!(std::fs::read(d.join("s.json")).unwrap(), before);
+}
+
+/// `scene gen cornell --out OUT` in a fresh directory after `setup`.
+fn gen_to(out: &str, setup: impl FnOnce(&Path)) -> (tempfile::TempDir, Ran) {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path());
+    let r = run_in(dir.path(), &["scene", "gen", "cornell", "--out", out], 30);
+    (dir, r)
+}
+
+#[test]
+fn bad_output_paths_are_refused_before_the_work() {
+    // Before: a 300-byte name failed after the work, exit 1.
+    let long = format!("{}.json", "a".repeat(300));
+    let (_, r) = gen_to(&long, |_| {});
+    r.refused(&["--out", "305 bytes long", "255"]);
+    // A trailing slash on a file output.
+    let (d, r) = gen_to("x.json/", |d| {
+        std::fs::write(d.join("x.json"), "old").unwrap()
+    });
+    r.refused(&["--out x.json/", "ends in `/`"]);
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("x.json")).unwrap(),
+        "old"
+    );
+    let (_, r) = gen_to("new.json/", |_| {});
+    r.refused(&["ends in `/`"]);
+    // A symlink loop (before: replaced by a file, exit 0), directly and in the path.
+    let (d, r) = gen_to("loop", |d| {
+        std::os::unix::fs::symlink("loop2", d.join("loop")).unwrap();
+        std::os::unix::fs::symlink("loop", d.join("loop2")).unwrap();
+    });
+    r.refused(&["--out loop", "loop of symbolic links"]);
+    assert!(std::fs::symlink_metadata(d.path().join("loop"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    let (_, r) = gen_to("self/x.json", |d| {
+        std::os::unix::fs::symlink("self", d.join("self")).unwrap()
+    });
+    assert_eq!(r.code, Some(2), "{}", r.shown());
+    // A directory, and a parent that is a file.
+    let (_, r) = gen_to("d", |d| std::fs::create_dir(d.join("d")).unwrap());
+    r.refused(&["--out d", "is a directory"]);
+    let (_, r) = gen_to("f/x.json", |d| std::fs::write(d.join("f"), "").unwrap());
+    r.refused(&["--out f/x.json", "not a directory"]);
+    let (d, r) = gen_to("ok.json", |_| {});
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    assert!(d.path().join("ok.json").is_file());
+}
+
+#[test]
+fn a_replaced_file_keeps_its_mode() {
+    use std::os::unix::fs::PermissionsExt;
+    // Before: 0600 became 0644.
+    for mode in [0o600, 0o640, 0o755] {
+        let (d, r) = gen_to("out.json", |d| {
+            let p = d.join("out.json");
+            std::fs::write(&p, "old").unwrap();
+            std::fs::set_permissions(&p, std::fs::Permissions::from_mode(mode)).unwrap();
+        });
+        assert_eq!(r.code, Some(0), "{}", r.shown());
+        let m = std::fs::metadata(d.path().join("out.json")).unwrap();
+        assert_eq!(m.permissions().mode() & 0o777, mode);
+        assert!(m.len() > 100, "replaced");
+    }
+}
+
+#[test]
+fn a_fifo_as_material_library_is_refused() {
+    // Before: read without the cap, a FIFO with no writer blocked forever.
+    let (_, r) = import_to("b.json", |d| {
+        std::fs::remove_file(d.join("m.mtl")).unwrap();
+        let ok = Command::new("mkfifo")
+            .arg(d.join("m.mtl"))
+            .status()
+            .unwrap();
+        assert!(ok.success());
+    });
+    r.refused(&["m.mtl", "FIFO, device or socket, not a regular file"]);
+}
