@@ -83,8 +83,13 @@ pub fn human(bytes: u64) -> String {
 /// device) is bad input naming the limit and how to raise it. A file that is also one of
 /// the command's outputs is refused first (`output::check_input`).
 pub fn read_input(path: &Path) -> Result<Vec<u8>> {
-    let limit = max_input()?;
     crate::output::check_input(path)?;
+    read_capped(path)
+}
+
+/// [`read_input`] without the check against the outputs.
+fn read_capped(path: &Path) -> Result<Vec<u8>> {
+    let limit = max_input()?;
     let f = std::fs::File::open(path).map_err(|e| Error::unreadable(path, e))?;
     let mut bytes = Vec::new();
     f.take(limit.saturating_add(1))
@@ -107,6 +112,20 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
 /// a matrix's summary): a FIFO, device or socket is refused before it is opened, so that a
 /// FIFO with no writer cannot block the run.
 pub fn read_regular(path: &Path) -> Result<Vec<u8>> {
+    regular(path)?;
+    read_input(path)
+}
+
+/// [`read_regular`] for a file shellsim wrote into an output directory and reads back to
+/// resume or merge (explore's `spec.json`, point files, cached references): capped, a
+/// regular file, but not refused for being in an output.
+pub fn read_own(path: &Path) -> Result<Vec<u8>> {
+    regular(path)?;
+    read_capped(path)
+}
+
+/// Refuses `path` unless it is a regular file.
+fn regular(path: &Path) -> Result<()> {
     let m = std::fs::metadata(path).map_err(|e| Error::unreadable(path, e))?;
     if !m.is_file() {
         let what = if m.is_dir() {
@@ -120,7 +139,7 @@ pub fn read_regular(path: &Path) -> Result<Vec<u8>> {
             format!("is {what}, not a regular file"),
         ));
     }
-    read_input(path)
+    Ok(())
 }
 
 /// `bytes` as UTF-8 text, or unreadable input in `path`.

@@ -80,7 +80,7 @@ fn parent_dir(target: &Path) -> PathBuf {
 }
 
 /// An output file being written. For a regular file (or a new one) it is a temporary file
-/// beside the target (`.NAME.PID.tmp`, created with its directory) that
+/// beside the target (`.NAME.PID.N.tmp`, created with its directory) that
 /// [`TempFile::persist`] renames into place; dropped without that, it is removed. For a
 /// device, FIFO or `-` it is the target itself, and `persist` does nothing.
 #[derive(Debug)]
@@ -137,7 +137,10 @@ impl TempFile {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "out".into());
-        let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        // The process id and a counter: two threads writing one target never share a name.
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = NEXT.fetch_add(1, Ordering::Relaxed);
+        let tmp = dir.join(format!(".{name}.{}.{n}.tmp", std::process::id()));
         // Listed before it exists, so that an interrupt in between still removes it.
         temps().push(tmp.clone());
         let f = match File::create(&tmp) {
