@@ -673,3 +673,52 @@ fn a_fifo_as_material_library_is_refused() {
     });
     r.refused(&["m.mtl", "FIFO, device or socket, not a regular file"]);
 }
+
+#[test]
+fn radiosity_with_light_never_absorbed_is_bad_input() {
+    // Before: a closed box of reflectance 1 everywhere (which the validator accepts) ran
+    // 10^4 sweeps and exited 1, "check failed: float did not converge".
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let r = run_in(
+        d,
+        &[
+            "scene",
+            "gen",
+            "corpus-subdivided-box",
+            "--n",
+            "2",
+            "--out",
+            "box.json",
+        ],
+        30,
+    );
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    let text = std::fs::read_to_string(d.join("box.json")).unwrap();
+    for (rho, status) in [(1.0, 2), (0.99, 0)] {
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        for p in v["patches"].as_array_mut().unwrap() {
+            p["reflectance"] = serde_json::json!(rho);
+        }
+        v["patches"][0]["emission"] = serde_json::json!(1.0);
+        std::fs::write(d.join("white.json"), v.to_string()).unwrap();
+        let r = run_in(
+            d,
+            &[
+                "radiosity",
+                "--scene",
+                "white.json",
+                "--size",
+                "8x8",
+                "--out",
+                "out",
+            ],
+            60,
+        );
+        if status == 2 {
+            r.refused(&["white.json", "reflectance", "never absorbed"]);
+        } else {
+            assert_eq!(r.code, Some(0), "{}", r.shown());
+        }
+    }
+}
