@@ -457,6 +457,16 @@ fn read_spec_file(dir: &Path) -> Result<Option<SpecFile>> {
         Ok(_) => {
             let sf: SpecFile = serde_json::from_slice(&crate::limits::read_own(&path)?)
                 .map_err(|e| Error::input(&path, format!("line {}", e.line()), e.to_string()))?;
+            if sf.spec_hash.len() != 16 || !sf.spec_hash.bytes().all(|b| b.is_ascii_hexdigit()) {
+                return Err(Error::input(
+                    &path,
+                    "spec_hash",
+                    format!(
+                        "{:?} is not a spec's hash (16 hexadecimal digits)",
+                        crate::error::shown(&sf.spec_hash)
+                    ),
+                ));
+            }
             if sf.points > spec::MAX_POINTS {
                 return Err(Error::input(
                     &path,
@@ -474,17 +484,38 @@ fn read_spec_file(dir: &Path) -> Result<Option<SpecFile>> {
 }
 
 /// A point's file in `dir`, when it holds a point of the spec `hash`; `None` when there is
-/// none or it is not one (it is measured again). A FIFO, device or directory there, or a
-/// file past the input limit, is refused (bad input).
-fn read_point(dir: &Path, i: usize, hash: &str) -> Result<Option<PointFile>> {
+/// none, or (unless `strict`) it is not one (it is measured again). A FIFO, device or
+/// directory there, or a file past the input limit, is refused (bad input); so is, when
+/// `strict` (`merge`), a file that is not a point file or holds another point or spec.
+fn read_point(dir: &Path, i: usize, hash: &str, strict: bool) -> Result<Option<PointFile>> {
     let path = point_file(dir, i);
     if std::fs::symlink_metadata(&path).is_err() {
         return Ok(None);
     }
     let bytes = crate::limits::read_own(&path)?;
-    Ok(serde_json::from_slice::<PointFile>(&bytes)
-        .ok()
-        .filter(|f| f.spec_hash == hash && f.point.index == i))
+    match serde_json::from_slice::<PointFile>(&bytes) {
+        Ok(f) if f.spec_hash == hash && f.point.index == i => Ok(Some(f)),
+        Ok(f) if strict && f.point.index != i => Err(Error::input(
+            &path,
+            "index",
+            format!("holds point {}, not point {i}", f.point.index),
+        )),
+        Ok(f) if strict => Err(Error::input(
+            &path,
+            "spec_hash",
+            format!(
+                "a point of another spec (hash {}) than {} (hash {hash})",
+                crate::error::shown(&f.spec_hash),
+                dir.join("spec.json").display()
+            ),
+        )),
+        Err(e) if strict => Err(Error::input(
+            &path,
+            format!("line {}", e.line()),
+            format!("not a point file: {e}"),
+        )),
+        _ => Ok(None),
+    }
 }
 
 /// The indices below `points` of the point files in `dir/points` (names `NNNNNN.json`),
@@ -557,7 +588,7 @@ pub fn run(
     claim(dir, &sf)?;
     let mut done: BTreeMap<usize, PointFile> = BTreeMap::new();
     for p in &mine {
-        if let Some(f) = read_point(dir, p.index, &spec.hash)? {
+        if let Some(f) = read_point(dir, p.index, &spec.hash, false)? {
             done.insert(p.index, f);
         }
     }
@@ -703,7 +734,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
         }
         let shown: Vec<String> = missing.iter().map(|i| i.to_string()).collect();
         return Err(Error::input(
-            first,
+            &first.join("spec.json"),
             "points",
             format!(
                 "{} of {} points are in no shard (points {}{}): a shard has not finished",
@@ -723,7 +754,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
         if files.contains_key(&i) {
             continue;
         }
-        if let Some(f) = read_point(d, i, &whole.spec_hash)? {
+        if let Some(f) = read_point(d, i, &whole.spec_hash, true)? {
             files.insert(i, f);
         }
     }
@@ -733,7 +764,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     if !missing.is_empty() {
         let shown: Vec<String> = missing.iter().take(10).map(|i| i.to_string()).collect();
         return Err(Error::input(
-            first,
+            &first.join("spec.json"),
             "points",
             format!(
                 "{} of {} points are in no shard (points {}{}): a shard has not finished",
