@@ -546,7 +546,8 @@ fn merge_is_bounded_by_the_files_present() {
     let d = copy_of_whole();
     let sf = std::fs::read_to_string(d.join("spec.json")).unwrap();
     for (points, want) in [
-        ("1000000000000000", "more than a spec expands to"),
+        ("1000000000000000", "a spec expands to 1..=1000000"),
+        ("0", "a spec expands to 1..=1000000"),
         ("999999", "999987 of 999999 points are in no shard"),
     ] {
         let huge = sf.replace("\"points\": 12,", &format!("\"points\": {points},"));
@@ -645,4 +646,15 @@ fn a_long_value_list_expands_in_linear_time() {
         large < 6.0 * small.max(0.05),
         "20k values: {small:.2} s, 80k: {large:.2} s — not linear"
     );
+}
+
+#[test]
+fn huge_numbers_are_shown_short() {
+    // Before: `source = 1e300` was echoed as 301 digits.
+    let spec = spec_file(&tiny_spec("source = 1e300\n"));
+    let o = run(&spec, &keep().join("out"), None, None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("line 6") && err.contains("1e300"), "{err}");
+    assert!(!err.contains("0000000000"), "a number printed whole: {err}");
 }

@@ -467,12 +467,12 @@ fn read_spec_file(dir: &Path) -> Result<Option<SpecFile>> {
                     ),
                 ));
             }
-            if sf.points > spec::MAX_POINTS {
+            if !(1..=spec::MAX_POINTS).contains(&sf.points) {
                 return Err(Error::input(
                     &path,
                     "points",
                     format!(
-                        "{} points: more than a spec expands to (at most {})",
+                        "{} points: a spec expands to 1..={}",
                         sf.points,
                         spec::MAX_POINTS
                     ),

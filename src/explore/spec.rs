@@ -57,7 +57,7 @@ impl std::fmt::Display for Val {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Val::Int(v) => write!(f, "{v}"),
-            Val::Float(v) => write!(f, "{v}"),
+            Val::Float(v) => write!(f, "{}", crate::error::short(*v)),
             Val::Str(v) => write!(f, "{v}"),
             Val::Bool(v) => write!(f, "{v}"),
         }
