@@ -657,7 +657,7 @@ fn check_same_spec(dir: &Path, sf: &SpecFile) -> Result<()> {
                 &dir.join("spec.json"),
                 "spec_hash",
                 format!(
-                    "this directory holds a run of another spec or shard (hash {}, shard {}); this one is hash {}, shard {}: give another --out or remove it",
+                    "this directory holds a run of another spec or shard (hash {}, shard {}); this one is hash {}, shard {}: write into another directory or remove it",
                     old.spec_hash,
                     shard_name(old.shard),
                     sf.spec_hash,

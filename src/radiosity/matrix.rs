@@ -616,6 +616,7 @@ pub fn write(path: &Path, m: &FormMatrix, summary: &Summary) -> Result<()> {
 /// `Error::Input` naming the file, the line and what is wrong.
 pub fn read(path: &Path, scene: &Scene) -> Result<FormMatrix> {
     let bytes = crate::limits::read_input(path)?;
+    let m = from_bytes(&bytes, path, scene)?;
     let sp = summary_path(path);
     if std::fs::metadata(&sp).is_ok_and(|m| m.is_file()) {
         let s = crate::limits::utf8(&sp, crate::limits::read_regular(&sp)?)?;
@@ -638,7 +639,7 @@ pub fn read(path: &Path, scene: &Scene) -> Result<FormMatrix> {
             ));
         }
     }
-    from_bytes(&bytes, path, scene)
+    Ok(m)
 }
 
 /// A token of a file as a message shows it: control characters escaped, at most 40
