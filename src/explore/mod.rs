@@ -560,10 +560,23 @@ fn claim(dir: &Path, sf: &SpecFile) -> Result<()> {
         .and_then(|_| f.sync_all())
         .map_err(|e| Error::io(&path, e))?;
     drop(f);
+    let exists = |e: &std::io::Error| e.kind() == std::io::ErrorKind::AlreadyExists;
     match std::fs::hard_link(tmp.tmp_path(), &path) {
         Ok(()) => Ok(()),
-        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => check_same_spec(dir, sf),
-        Err(e) => Err(Error::io(&path, e)),
+        Err(e) if exists(&e) => check_same_spec(dir, sf),
+        // A file system without hard links: created exclusively, written in place.
+        Err(_) => match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&path)
+        {
+            Ok(mut f) => f
+                .write_all(output::json_string(sf).as_bytes())
+                .and_then(|_| f.sync_all())
+                .map_err(|e| Error::io(&path, e)),
+            Err(e) if exists(&e) => check_same_spec(dir, sf),
+            Err(e) => Err(Error::io(&path, e)),
+        },
     }
     // `tmp` is dropped here: the temporary name is removed, spec.json stays.
 }
