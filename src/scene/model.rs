@@ -738,29 +738,29 @@ mod tests {
 
 #[cfg(test)]
 mod linear_twins {
-    use crate::scene::obj::{import_bytes, ImportOptions};
-    use std::path::Path;
+    use super::{Aabb, Patch, Scene};
+    use glam::DVec3;
 
-    /// One planar convex face of `n` vertices (a regular polygon), imported: a fan of
-    /// n − 2 triangles sharing vertex 1.
-    fn fan(n: usize) -> crate::scene::Scene {
-        let mut t = String::new();
-        for i in 0..n {
-            let a = std::f64::consts::TAU * i as f64 / n as f64;
-            t.push_str(&format!("v {:.17} {:.17} 0\n", a.cos(), a.sin()));
+    /// A regular polygon of `n` vertices split into a fan of n − 2 triangles sharing its
+    /// first vertex, as the OBJ importer splits a large face.
+    fn fan(n: usize) -> Scene {
+        let v: Vec<DVec3> = (0..n)
+            .map(|i| {
+                let a = std::f64::consts::TAU * i as f64 / n as f64;
+                DVec3::new(a.cos(), a.sin(), 0.0)
+            })
+            .collect();
+        let patches = (1..n - 1)
+            .map(|k| Patch::new(vec![v[0], v[k], v[k + 1]], 0.0, 0.5))
+            .collect();
+        Scene {
+            name: "fan".into(),
+            bounds: Aabb {
+                lo: DVec3::new(-1.0, -1.0, -1.0),
+                hi: DVec3::new(1.0, 1.0, 1.0),
+            },
+            patches,
         }
-        t.push('f');
-        for i in 1..=n {
-            t.push_str(&format!(" {i}"));
-        }
-        t.push('\n');
-        import_bytes(
-            t.into_bytes(),
-            Path::new("fan.obj"),
-            &ImportOptions::default(),
-        )
-        .unwrap()
-        .0
     }
 
     /// Seconds [`super::Scene::twins`] takes on a fan of `n` vertices; it has no twins.
