@@ -658,3 +658,35 @@ fn huge_numbers_are_shown_short() {
     assert!(err.contains("line 6") && err.contains("1e300"), "{err}");
     assert!(!err.contains("0000000000"), "a number printed whole: {err}");
 }
+
+#[test]
+fn a_spec_named_as_an_output_is_refused() {
+    // The spec written where `explore slurm --out DIR` puts explore.sbatch. Before: the
+    // spec was replaced by the script, exit 0.
+    let dir = keep().join("slurm");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = dir.join("explore.sbatch");
+    let text = tiny_spec("");
+    std::fs::write(&spec, &text).unwrap();
+    let o = shellsim(
+        &[
+            "explore",
+            "slurm",
+            "--space",
+            spec.to_str().unwrap(),
+            "--tasks",
+            "2",
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+        None,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--out") && err.contains("is the input"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&spec).unwrap(), text);
+    assert!(!dir.join("submit.sh").exists());
+}
