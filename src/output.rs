@@ -400,7 +400,7 @@ pub fn check_outputs(outputs: &[Output]) -> Result<()> {
         if o.dir {
             continue;
         }
-        if let Some((dev, ino)) = file_id(&o.path) {
+        if let Some((dev, ino)) = file_id(&o.path).filter(|_| !is_stdout(&o.path)) {
             OUTPUTS.lock().unwrap_or_else(|p| p.into_inner()).push((
                 dev,
                 ino,
