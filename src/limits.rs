@@ -80,8 +80,15 @@ pub fn human(bytes: u64) -> String {
 }
 
 /// Reads the input file `path`, at most [`max_input`] bytes: a longer one (or an endless
-/// device) is bad input naming the limit and how to raise it.
+/// device) is bad input naming the limit and how to raise it. A file that is also one of
+/// the command's outputs is refused first (`output::check_input`).
 pub fn read_input(path: &Path) -> Result<Vec<u8>> {
+    crate::output::check_input(path)?;
+    read_capped(path)
+}
+
+/// [`read_input`] without the check against the outputs.
+fn read_capped(path: &Path) -> Result<Vec<u8>> {
     let limit = max_input()?;
     let f = std::fs::File::open(path).map_err(|e| Error::unreadable(path, e))?;
     let mut bytes = Vec::new();
@@ -101,9 +108,43 @@ pub fn read_input(path: &Path) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-/// [`read_input`] as UTF-8 text; text that is not UTF-8 is unreadable input.
-pub fn read_input_string(path: &Path) -> Result<String> {
-    String::from_utf8(read_input(path)?).map_err(|_| {
+/// [`read_input`] for a file that must be a regular file (a material library, a point file,
+/// a matrix's summary): a FIFO, device or socket is refused before it is opened, so that a
+/// FIFO with no writer cannot block the run.
+pub fn read_regular(path: &Path) -> Result<Vec<u8>> {
+    regular(path)?;
+    read_input(path)
+}
+
+/// [`read_regular`] for a file shellsim wrote into an output directory and reads back to
+/// resume or merge (explore's `spec.json`, point files, cached references): capped, a
+/// regular file, but not refused for being in an output.
+pub fn read_own(path: &Path) -> Result<Vec<u8>> {
+    regular(path)?;
+    read_capped(path)
+}
+
+/// Refuses `path` unless it is a regular file.
+fn regular(path: &Path) -> Result<()> {
+    let m = std::fs::metadata(path).map_err(|e| Error::unreadable(path, e))?;
+    if !m.is_file() {
+        let what = if m.is_dir() {
+            "a directory"
+        } else {
+            "a FIFO, device or socket"
+        };
+        return Err(Error::input(
+            path,
+            "file",
+            format!("is {what}, not a regular file"),
+        ));
+    }
+    Ok(())
+}
+
+/// `bytes` as UTF-8 text, or unreadable input in `path`.
+pub fn utf8(path: &Path, bytes: Vec<u8>) -> Result<String> {
+    String::from_utf8(bytes).map_err(|_| {
         Error::unreadable(
             path,
             std::io::Error::new(
@@ -112,6 +153,11 @@ pub fn read_input_string(path: &Path) -> Result<String> {
             ),
         )
     })
+}
+
+/// [`read_input`] as UTF-8 text; text that is not UTF-8 is unreadable input.
+pub fn read_input_string(path: &Path) -> Result<String> {
+    utf8(path, read_input(path)?)
 }
 
 /// Refuses a job whose memory `estimate` (bytes) is past [`max_memory`]: `Error::Param`

@@ -80,7 +80,7 @@ fn parent_dir(target: &Path) -> PathBuf {
 }
 
 /// An output file being written. For a regular file (or a new one) it is a temporary file
-/// beside the target (`.NAME.PID.tmp`, created with its directory) that
+/// beside the target (`.NAME.PID.N.tmp`, created with its directory) that
 /// [`TempFile::persist`] renames into place; dropped without that, it is removed. For a
 /// device, FIFO or `-` it is the target itself, and `persist` does nothing.
 #[derive(Debug)]
@@ -137,7 +137,10 @@ impl TempFile {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "out".into());
-        let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+        // The process id and a counter: two threads writing one target never share a name.
+        static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+        let n = NEXT.fetch_add(1, Ordering::Relaxed);
+        let tmp = dir.join(format!(".{name}.{}.{n}.tmp", std::process::id()));
         // Listed before it exists, so that an interrupt in between still removes it.
         temps().push(tmp.clone());
         let f = match File::create(&tmp) {
@@ -147,6 +150,15 @@ impl TempFile {
                 return Err(Error::io(&tmp, e));
             }
         };
+        // A replaced file keeps its permission mode (0600 stays 0600).
+        if let Ok(m) = std::fs::metadata(&target) {
+            if let Err(e) = f.set_permissions(m.permissions()) {
+                drop(f);
+                let _ = std::fs::remove_file(&tmp);
+                temps().retain(|t| *t != tmp);
+                return Err(Error::io(&tmp, e));
+            }
+        }
         Ok((
             TempFile {
                 path: path.to_path_buf(),
@@ -363,8 +375,11 @@ fn check_writable(o: &Output, dir: &Path) -> Result<()> {
 }
 
 /// Checks every output of a command before any work starts: a file output must not be a
-/// directory and its directory must be writable (or creatable); a directory output must
-/// not be a file; no two outputs may name the same file (`-` counts as one file). Devices
+/// directory, end in `/` or be a symlink loop, no name in a path may be longer than
+/// [`NAME_MAX`] bytes, and a file's directory must be writable (or creatable); a directory
+/// output must not be a file; no two outputs may name the same file (`-` counts as one
+/// file). Existing file outputs are remembered, so that reading one of them as an input
+/// afterwards is refused ([`check_input`]). Devices
 /// and FIFOs are accepted as they are (several outputs may go to `/dev/null`). Errors are
 /// `Error::Usage` naming the option (exit status 2). When an output is `-`, what the command
 /// prints goes to standard error instead, so that standard output holds only that file.
@@ -373,6 +388,9 @@ pub fn check_outputs(outputs: &[Output]) -> Result<()> {
     for o in outputs {
         let shown = crate::error::shown(&o.path.display().to_string());
         let usage = |what: &str| Error::Usage(format!("{} {shown}: {what}", o.option));
+        if !is_stdout(&o.path) {
+            check_path(o).map_err(|w| usage(&w))?;
+        }
         if is_stdout(&o.path) {
             if o.dir {
                 return Err(usage("a directory is needed here, not standard output"));
@@ -401,6 +419,14 @@ pub fn check_outputs(outputs: &[Output]) -> Result<()> {
         if o.dir {
             continue;
         }
+        if let Some((dev, ino)) = file_id(&o.path).filter(|_| !is_stdout(&o.path)) {
+            OUTPUTS.lock().unwrap_or_else(|p| p.into_inner()).push((
+                dev,
+                ino,
+                o.option.clone(),
+                o.path.clone(),
+            ));
+        }
         if let Some((_, first)) = seen.iter().find(|(k, _)| *k == id) {
             return Err(Error::Usage(format!(
                 "{} and {} name the same file ({shown}); give each output its own",
@@ -408,6 +434,74 @@ pub fn check_outputs(outputs: &[Output]) -> Result<()> {
             )));
         }
         seen.push((id, o));
+    }
+    Ok(())
+}
+
+/// The outputs [`check_outputs`] found existing: (device, inode, option, path as given), so
+/// that an input read afterwards ([`check_input`]) that is one of them is refused.
+static OUTPUTS: Mutex<Vec<(u64, u64, String, PathBuf)>> = Mutex::new(Vec::new());
+
+/// (device, inode) of the file `path` names, through symlinks; `None` when it does not
+/// exist (or cannot be reached).
+fn file_id(path: &Path) -> Option<(u64, u64)> {
+    use std::os::unix::fs::MetadataExt;
+    std::fs::metadata(path).ok().map(|m| (m.dev(), m.ino()))
+}
+
+/// Refuses to read `input` when it is the same file (same device and inode, through
+/// symlinks and hard links) as an output [`check_outputs`] accepted: writing the output
+/// would replace the input. Called by the capped reader (`limits::read_input`) on every
+/// input, which commands read before their work starts. `Error::Usage` (exit status 2).
+pub fn check_input(input: &Path) -> Result<()> {
+    let Some(id) = file_id(input) else {
+        return Ok(());
+    };
+    let outputs = OUTPUTS.lock().unwrap_or_else(|p| p.into_inner());
+    for (dev, ino, option, path) in outputs.iter() {
+        // Checked again, so that a file removed and its inode reused is not mistaken.
+        if (*dev, *ino) == id && file_id(path) == Some(id) {
+            return Err(Error::Usage(format!(
+                "{option} {}: is the input {} (the same file); writing it would replace the input, name another output",
+                crate::error::shown(&path.display().to_string()),
+                crate::error::shown(&input.display().to_string())
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// The most bytes of one name in a path (Linux's NAME_MAX).
+pub const NAME_MAX: usize = 255;
+
+/// ELOOP on Linux: too many levels of symbolic links.
+const ELOOP: i32 = 40;
+
+/// Refuses a path that cannot name an output file: a name in it longer than [`NAME_MAX`]
+/// bytes, a trailing `/` on a file, a symlink loop (in the last name or on the way).
+fn check_path(o: &Output) -> std::result::Result<(), String> {
+    use std::os::unix::ffi::OsStrExt;
+    let bytes = o.path.as_os_str().as_bytes();
+    for c in o.path.components() {
+        let n = c.as_os_str().len();
+        if n > NAME_MAX {
+            return Err(format!(
+                "a name in it is {n} bytes long, more than the {NAME_MAX} a file system allows"
+            ));
+        }
+    }
+    if !o.dir && bytes.ends_with(b"/") {
+        return Err("ends in `/`, which names a directory; name a file (drop the `/`)".into());
+    }
+    let looped = |e: &std::io::Error| e.raw_os_error() == Some(ELOOP);
+    if let Err(e) = std::fs::metadata(&o.path) {
+        if looped(&e) {
+            return Err("is a loop of symbolic links; name a file".into());
+        }
+    }
+    let target = resolve(&o.path);
+    if std::fs::symlink_metadata(&target).is_ok_and(|m| m.file_type().is_symlink()) {
+        return Err("is a loop of symbolic links (or a chain of more than 40); name a file".into());
     }
     Ok(())
 }

@@ -328,3 +328,397 @@ fn obj_vertex_outside_given_bounds() {
     assert_eq!((scene.patches.len(), report.faces), (4, 4));
     assert_eq!(scene.bounds.hi, glam::DVec3::new(3.0, 3.0, 1.0));
 }
+
+// --- Hostile inputs through the whole CLI, each with a time limit (a hang is a failure).
+
+/// How a run of the binary ended: its exit status (`None` when killed after the time
+/// limit), standard output and standard error.
+struct Ran {
+    code: Option<i32>,
+    stdout: String,
+    stderr: String,
+}
+
+impl Ran {
+    fn shown(&self) -> String {
+        format!(
+            "status {:?}\n--- stdout\n{}--- stderr\n{}",
+            self.code, self.stdout, self.stderr
+        )
+    }
+
+    /// Exit status 2, an `error:` line holding every string of `want`, no panic.
+    fn refused(&self, want: &[&str]) {
+        assert_eq!(self.code, Some(2), "{}", self.shown());
+        assert!(self.stderr.starts_with("error: "), "{}", self.shown());
+        assert!(!self.stderr.contains("panicked"), "{}", self.shown());
+        for w in want {
+            assert!(
+                self.stderr.contains(w),
+                "stderr lacks {w:?}\n{}",
+                self.shown()
+            );
+        }
+    }
+}
+
+/// Runs `shellsim ARGS` in `dir` (one thread), killed after `secs` seconds.
+fn run_in(dir: &Path, args: &[&str], secs: u64) -> Ran {
+    let out = dir.join(".stdout");
+    let err = dir.join(".stderr");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args(args)
+        .current_dir(dir)
+        .env("RAYON_NUM_THREADS", "1")
+        .stdin(std::process::Stdio::null())
+        .stdout(std::fs::File::create(&out).unwrap())
+        .stderr(std::fs::File::create(&err).unwrap())
+        .spawn()
+        .expect("the shellsim binary runs");
+    let start = std::time::Instant::now();
+    let code = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s.code();
+        }
+        if start.elapsed().as_secs() >= secs {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let read = |p: &Path| String::from_utf8_lossy(&std::fs::read(p).unwrap()).into_owned();
+    Ran {
+        code,
+        stdout: read(&out),
+        stderr: read(&err),
+    }
+}
+
+/// A committed scene's absolute path.
+fn scene_file(name: &str) -> String {
+    format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// `radiosity --matrix FILE` on cornell.json (18 patches) with `text` as FILE.
+fn radiosity_matrix(text: &str) -> (tempfile::TempDir, Ran) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("m.mtx"), text).unwrap();
+    let r = run_in(
+        dir.path(),
+        &[
+            "radiosity",
+            "--scene",
+            &scene_file("cornell.json"),
+            "--matrix",
+            "m.mtx",
+            "--size",
+            "8x8",
+            "--out",
+            "out",
+        ],
+        30,
+    );
+    (dir, r)
+}
+
+const MTX_HEAD: &str = "%%MatrixMarket matrix coordinate real general\n";
+
+#[test]
+fn mtx_index_beyond_the_size() {
+    // Before: exit 101, sprs panicked on the index.
+    let (d, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 2\n1 2 0.1\n19 1 0.5\n"));
+    r.refused(&["m.mtx", "line 4", "row 19 is out of range (1..=18)"]);
+    assert!(!d.path().join("out").exists(), "{}", r.shown());
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1\n1 0 0.5\n"));
+    r.refused(&["m.mtx", "line 3", "column 0 is out of range"]);
+}
+
+#[test]
+fn mtx_header_only_ends() {
+    // Before: a loop at 100 % CPU, never ending.
+    let (_, r) = radiosity_matrix(MTX_HEAD);
+    r.refused(&["m.mtx", "line 1", "size line"]);
+    let (_, r) = radiosity_matrix("");
+    r.refused(&["m.mtx", "line 1", "empty"]);
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}% a comment\n"));
+    r.refused(&["m.mtx", "line 2", "size line"]);
+}
+
+#[test]
+fn mtx_huge_declared_sizes_are_refused_without_allocating() {
+    // Before: 10^12 entries aborted allocating 8 TB.
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1000000000000\n1 1 0.5\n"));
+    r.refused(&["m.mtx", "line 2", "1000000000000 entries", "(324)"]);
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}4000000000 4000000000 1\n1 1 0.5\n"));
+    r.refused(&["m.mtx", "line 2", "4000000000×4000000000", "18 patches"]);
+    let big = "9".repeat(300);
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 {big}\n"));
+    r.refused(&["m.mtx", "line 2", "not a count of entries", "…"]);
+    assert!(
+        r.stderr.len() < 200,
+        "a 300-digit number printed whole: {}",
+        r.shown()
+    );
+}
+
+#[test]
+fn mtx_entry_count_checked_both_ways() {
+    // Before: a header declaring fewer entries than the file holds dropped the rest, exit 0.
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1\n1 2 0.1\n1 3 0.1\n"));
+    r.refused(&["m.mtx", "line 4", "past the 1"]);
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 3\n1 2 0.1\n1 3 0.1\n"));
+    r.refused(&["m.mtx", "line 4", "declares 3 entries", "after 2"]);
+}
+
+#[test]
+fn mtx_malformed_lines_and_headers() {
+    for (text, want) in [
+        (
+            "%%MatrixMarket matrix array real general\n18 18\n",
+            "line 1",
+        ),
+        ("hello\n", "not a Matrix Market header"),
+        (&format!("{MTX_HEAD}18 18\n") as &str, "three counts"),
+        (&format!("{MTX_HEAD}18 18 1\n1 2\n"), "row column value"),
+        (
+            &format!("{MTX_HEAD}18 18 1\n1 2 x\n"),
+            "\"x\" is not a number",
+        ),
+        (
+            &format!("{MTX_HEAD}18 18 1\n1 2 1.5\n"),
+            "not a form factor",
+        ),
+        (&format!("{MTX_HEAD}18 18 1\n-1 2 0.5\n"), "not an index"),
+    ] {
+        let (_, r) = radiosity_matrix(text);
+        r.refused(&["m.mtx", want]);
+    }
+    // The same file, valid: exit 0 (the test can fail both ways).
+    let (_, r) = radiosity_matrix(&format!("{MTX_HEAD}18 18 1\n1 2 0.25\n"));
+    assert_eq!(r.code, Some(0), "a valid matrix: {}", r.shown());
+}
+
+// --- Outputs checked before any work: an input named as an output, bad paths, modes.
+
+/// `scene import a.obj --out OUT` in a fresh directory holding `a.obj` (a valid box), with
+/// `setup` run on the directory first; returns it, the run, and a.obj's bytes before.
+fn import_to(out: &str, setup: impl FnOnce(&Path)) -> (tempfile::TempDir, Ran) {
+    let dir = tempfile::tempdir().unwrap();
+    let obj = format!("mtllib m.mtl\nusemtl a\n{}", obj_with(""));
+    std::fs::write(dir.path().join("a.obj"), obj).unwrap();
+    std::fs::write(dir.path().join("m.mtl"), "newmtl a\nKd 0.5\n").unwrap();
+    setup(dir.path());
+    let r = run_in(dir.path(), &["scene", "import", "a.obj", "--out", out], 30);
+    (dir, r)
+}
+
+#[test]
+fn an_input_named_as_the_output_is_refused() {
+    // Before: the OBJ was replaced by the JSON scene, exit 0.
+    let (d, r) = import_to("a.obj", |_| {});
+    r.refused(&["--out a.obj", "is the input a.obj", "name another output"]);
+    assert!(std::fs::read_to_string(d.path().join("a.obj"))
+        .unwrap()
+        .starts_with("mtllib"));
+    // Through a symlink, a hard link and `./`.
+    let (d, r) = import_to("link.json", |d| {
+        std::os::unix::fs::symlink("a.obj", d.join("link.json")).unwrap()
+    });
+    r.refused(&["--out link.json", "is the input a.obj"]);
+    assert!(std::fs::read_to_string(d.path().join("a.obj"))
+        .unwrap()
+        .starts_with("mtllib"));
+    let (_, r) = import_to("hard.json", |d| {
+        std::fs::hard_link(d.join("a.obj"), d.join("hard.json")).unwrap()
+    });
+    r.refused(&["is the input a.obj"]);
+    // The material library.
+    let (d, r) = import_to("./m.mtl", |_| {});
+    r.refused(&["--out ./m.mtl", "is the input", "m.mtl"]);
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("m.mtl")).unwrap(),
+        "newmtl a\nKd 0.5\n"
+    );
+    // Another output path is fine (the test can fail both ways).
+    let (d, r) = import_to("b.json", |_| {});
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    assert!(d.path().join("b.json").is_file());
+}
+
+#[test]
+fn a_scene_or_machine_configuration_named_as_the_output_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::copy(scene_file("cornell.json"), d.join("s.json")).unwrap();
+    let before = std::fs::read(d.join("s.json")).unwrap();
+    let r = run_in(
+        d,
+        &[
+            "reference",
+            "--scene",
+            "s.json",
+            "--source",
+            "0",
+            "--rays",
+            "100",
+            "--json",
+            "s.json",
+        ],
+        30,
+    );
+    r.refused(&["--json s.json", "is the input s.json"]);
+    // `matrix --out m.mtx` writes its summary to m.json: the scene there is refused.
+    std::fs::copy(d.join("s.json"), d.join("m.json")).unwrap();
+    let r = run_in(
+        d,
+        &[
+            "matrix", "--scene", "m.json", "--model", "float", "--out", "m.mtx",
+        ],
+        30,
+    );
+    r.refused(&["m.json", "is the input m.json"]);
+    assert!(!d.join("m.mtx").exists(), "{}", r.shown());
+    let toml = shellsim_hw::config::PAPER_TOML;
+    std::fs::write(d.join("c.toml"), toml).unwrap();
+    let r = run_in(
+        d,
+        &[
+            "check", "--scene", "s.json", "--source", "0", "--rays", "100", "--hw", "c.toml",
+            "--json", "c.toml",
+        ],
+        30,
+    );
+    r.refused(&["--json c.toml", "is the input c.toml"]);
+    assert_eq!(std::fs::read_to_string(d.join("c.toml")).unwrap(), toml);
+    assert_eq!(std::fs::read(d.join("s.json")).unwrap(), before);
+}
+
+/// `scene gen cornell --out OUT` in a fresh directory after `setup`.
+fn gen_to(out: &str, setup: impl FnOnce(&Path)) -> (tempfile::TempDir, Ran) {
+    let dir = tempfile::tempdir().unwrap();
+    setup(dir.path());
+    let r = run_in(dir.path(), &["scene", "gen", "cornell", "--out", out], 30);
+    (dir, r)
+}
+
+#[test]
+fn bad_output_paths_are_refused_before_the_work() {
+    // Before: a 300-byte name failed after the work, exit 1.
+    let long = format!("{}.json", "a".repeat(300));
+    let (_, r) = gen_to(&long, |_| {});
+    r.refused(&["--out", "305 bytes long", "255"]);
+    // A trailing slash on a file output.
+    let (d, r) = gen_to("x.json/", |d| {
+        std::fs::write(d.join("x.json"), "old").unwrap()
+    });
+    r.refused(&["--out x.json/", "ends in `/`"]);
+    assert_eq!(
+        std::fs::read_to_string(d.path().join("x.json")).unwrap(),
+        "old"
+    );
+    let (_, r) = gen_to("new.json/", |_| {});
+    r.refused(&["ends in `/`"]);
+    // A symlink loop (before: replaced by a file, exit 0), directly and in the path.
+    let (d, r) = gen_to("loop", |d| {
+        std::os::unix::fs::symlink("loop2", d.join("loop")).unwrap();
+        std::os::unix::fs::symlink("loop", d.join("loop2")).unwrap();
+    });
+    r.refused(&["--out loop", "loop of symbolic links"]);
+    assert!(std::fs::symlink_metadata(d.path().join("loop"))
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    let (_, r) = gen_to("self/x.json", |d| {
+        std::os::unix::fs::symlink("self", d.join("self")).unwrap()
+    });
+    assert_eq!(r.code, Some(2), "{}", r.shown());
+    // A directory, and a parent that is a file.
+    let (_, r) = gen_to("d", |d| std::fs::create_dir(d.join("d")).unwrap());
+    r.refused(&["--out d", "is a directory"]);
+    let (_, r) = gen_to("f/x.json", |d| std::fs::write(d.join("f"), "").unwrap());
+    r.refused(&["--out f/x.json", "not a directory"]);
+    let (d, r) = gen_to("ok.json", |_| {});
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    assert!(d.path().join("ok.json").is_file());
+}
+
+#[test]
+fn a_replaced_file_keeps_its_mode() {
+    use std::os::unix::fs::PermissionsExt;
+    // Before: 0600 became 0644.
+    for mode in [0o600, 0o640, 0o755] {
+        let (d, r) = gen_to("out.json", |d| {
+            let p = d.join("out.json");
+            std::fs::write(&p, "old").unwrap();
+            std::fs::set_permissions(&p, std::fs::Permissions::from_mode(mode)).unwrap();
+        });
+        assert_eq!(r.code, Some(0), "{}", r.shown());
+        let m = std::fs::metadata(d.path().join("out.json")).unwrap();
+        assert_eq!(m.permissions().mode() & 0o777, mode);
+        assert!(m.len() > 100, "replaced");
+    }
+}
+
+#[test]
+fn a_fifo_as_material_library_is_refused() {
+    // Before: read without the cap, a FIFO with no writer blocked forever.
+    let (_, r) = import_to("b.json", |d| {
+        std::fs::remove_file(d.join("m.mtl")).unwrap();
+        let ok = Command::new("mkfifo")
+            .arg(d.join("m.mtl"))
+            .status()
+            .unwrap();
+        assert!(ok.success());
+    });
+    r.refused(&["m.mtl", "FIFO, device or socket, not a regular file"]);
+}
+
+#[test]
+fn radiosity_with_light_never_absorbed_is_bad_input() {
+    // Before: a closed box of reflectance 1 everywhere (which the validator accepts) ran
+    // 10^4 sweeps and exited 1, "check failed: float did not converge".
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let r = run_in(
+        d,
+        &[
+            "scene",
+            "gen",
+            "corpus-subdivided-box",
+            "--n",
+            "2",
+            "--out",
+            "box.json",
+        ],
+        30,
+    );
+    assert_eq!(r.code, Some(0), "{}", r.shown());
+    let text = std::fs::read_to_string(d.join("box.json")).unwrap();
+    for (rho, status) in [(1.0, 2), (0.99, 0)] {
+        let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        for p in v["patches"].as_array_mut().unwrap() {
+            p["reflectance"] = serde_json::json!(rho);
+        }
+        v["patches"][0]["emission"] = serde_json::json!(1.0);
+        std::fs::write(d.join("white.json"), v.to_string()).unwrap();
+        let r = run_in(
+            d,
+            &[
+                "radiosity",
+                "--scene",
+                "white.json",
+                "--size",
+                "8x8",
+                "--out",
+                "out",
+            ],
+            60,
+        );
+        if status == 2 {
+            r.refused(&["white.json", "reflectance", "never absorbed"]);
+        } else {
+            assert_eq!(r.code, Some(0), "{}", r.shown());
+        }
+    }
+}

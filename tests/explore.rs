@@ -411,3 +411,322 @@ fn a_source_by_name() {
         &["line 2", "source", "lamp"],
     );
 }
+
+/// Scene-dependent point values are checked before the first point runs: nothing is left
+/// in the output directory, and `explore slurm` refuses the same spec.
+#[test]
+fn scene_dependent_values_are_checked_before_any_point() {
+    // Before: run wrote spec.json and the reference, then failed at the point; slurm
+    // wrote its scripts.
+    for (extra, want) in [
+        ("[[point]]\ncell = 0.00001\n", "cell size"),
+        (
+            "[[point]]\ndatapath.coord_int_bits = 1\n",
+            "does not fit the coordinate format",
+        ),
+    ] {
+        let text = tiny_spec(extra);
+        let spec = spec_file(&text);
+        let out = keep().join("out");
+        let o = run(&spec, &out, None, None);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(spec.to_str().unwrap()), "{err}");
+        assert!(err.contains(": point ") && err.contains(want), "{err}");
+        assert!(!out.exists(), "{} was created: {err}", out.display());
+        let dir = keep().join("slurm");
+        let o = shellsim(
+            &[
+                "explore",
+                "slurm",
+                "--space",
+                spec.to_str().unwrap(),
+                "--tasks",
+                "2",
+                "--out",
+                dir.to_str().unwrap(),
+            ],
+            None,
+        );
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{err}");
+        assert!(err.contains(": point ") && err.contains(want), "{err}");
+        assert!(!dir.join("explore.sbatch").exists());
+    }
+}
+
+#[test]
+fn slurm_out_naming_a_file_is_refused_up_front() {
+    // Before: exit 1 after loading the spec, from create_dir_all.
+    let (spec, _) = whole();
+    let file = keep().join("a-file");
+    std::fs::write(&file, "keep me").unwrap();
+    let o = shellsim(
+        &[
+            "explore",
+            "slurm",
+            "--space",
+            spec.to_str().unwrap(),
+            "--tasks",
+            "2",
+            "--out",
+            file.to_str().unwrap(),
+        ],
+        None,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--out") && err.contains("is not a directory"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "keep me");
+}
+
+/// `points.json` of a run directory as JSON values.
+fn points_json(dir: &Path) -> Vec<serde_json::Value> {
+    let text = std::fs::read_to_string(dir.join("points.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["points"].as_array().unwrap().clone()
+}
+
+#[test]
+fn references_are_cached_by_content_not_by_name() {
+    // Two different scenes that share a name (as every seed of a `scene gen` kind does).
+    // Before: they shared one cache file; with one thread the second was measured against
+    // the first one's reference, with two the run exited 1.
+    let d = keep();
+    let a = d.join("a.json");
+    let b = d.join("b.json");
+    std::fs::copy(common::scene_path("scene1.json"), &a).unwrap();
+    let cornell = std::fs::read_to_string(common::scene_path("cornell.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&cornell).unwrap();
+    let name = serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(&a).unwrap())
+        .unwrap()["name"]
+        .clone();
+    let mut v = v;
+    v["name"] = name.clone();
+    std::fs::write(&b, serde_json::to_string(&v).unwrap()).unwrap();
+    let text = |scenes: &str| {
+        format!("reference_rays = 20000\nscene = {scenes}\nlevel = \"float\"\nrays = 2000\n")
+    };
+    let both = spec_file(&text(&format!(
+        "[{:?}, {:?}]",
+        a.display().to_string(),
+        b.display().to_string()
+    )));
+    let alone = spec_file(&text(&format!("{:?}", b.display().to_string())));
+    let solo = keep().join("solo");
+    ok(&run(&alone, &solo, None, Some(1)), "b alone");
+    let want = points_json(&solo)[0]["ff_err_max"].clone();
+    for threads in [1, 2] {
+        let out = keep().join("both");
+        ok(&run(&both, &out, None, Some(threads)), "both scenes");
+        let p = points_json(&out);
+        assert_eq!(p.len(), 2);
+        assert_eq!(p[0]["scene"], name);
+        assert_eq!(p[1]["scene"], name);
+        assert_eq!(
+            p[1]["ff_err_max"], want,
+            "{threads} threads: the second scene measured against another reference"
+        );
+        let refs = std::fs::read_dir(out.join("reference")).unwrap().count();
+        assert_eq!(refs, 2, "one cached reference per scene");
+    }
+}
+
+/// A copy of the tiny spec's whole run directory.
+fn copy_of_whole() -> PathBuf {
+    let (_, out) = whole();
+    let d = keep().join("copy");
+    std::fs::create_dir_all(d.join("points")).unwrap();
+    std::fs::copy(out.join("spec.json"), d.join("spec.json")).unwrap();
+    for e in std::fs::read_dir(out.join("points")).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), d.join("points").join(e.file_name())).unwrap();
+    }
+    d
+}
+
+/// `explore merge` of `shards`, killed after 60 s (a hang fails the test).
+fn merge_within(shards: &[&Path]) -> (Option<i32>, String, PathBuf) {
+    let merged = keep().join("merged");
+    let mut c = Command::new(env!("CARGO_BIN_EXE_shellsim"));
+    c.args(["explore", "merge", "--out", merged.to_str().unwrap()])
+        .args(shards)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped());
+    let mut child = c.spawn().unwrap();
+    let start = std::time::Instant::now();
+    let code = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s.code();
+        }
+        if start.elapsed().as_secs() > 60 {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    let mut err = String::new();
+    use std::io::Read;
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    (code, err, merged)
+}
+
+#[test]
+fn merge_is_bounded_by_the_files_present() {
+    // Before: a spec.json claiming a huge number of points hung merge.
+    let d = copy_of_whole();
+    let sf = std::fs::read_to_string(d.join("spec.json")).unwrap();
+    for (points, want) in [
+        ("1000000000000000", "a spec expands to 1..=1000000"),
+        ("0", "a spec expands to 1..=1000000"),
+        ("999999", "999987 of 999999 points are in no shard"),
+    ] {
+        let huge = sf.replace("\"points\": 12,", &format!("\"points\": {points},"));
+        assert_ne!(huge, sf);
+        std::fs::write(d.join("spec.json"), huge).unwrap();
+        let (code, err, merged) = merge_within(&[&d]);
+        assert_eq!(code, Some(2), "{err}");
+        assert!(
+            err.contains("spec.json") || err.contains(d.to_str().unwrap()),
+            "{err}"
+        );
+        assert!(err.contains(want), "{err}");
+        assert!(!merged.join("points.csv").exists());
+    }
+    // The copy unchanged merges (the test can fail both ways).
+    std::fs::write(d.join("spec.json"), &sf).unwrap();
+    let (code, err, merged) = merge_within(&[&d]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(merged.join("points.csv").exists());
+}
+
+#[test]
+fn merge_refuses_a_fifo_point_file() {
+    // Before: merge blocked forever reading a FIFO with no writer.
+    let d = copy_of_whole();
+    let p = d.join("points/000003.json");
+    std::fs::remove_file(&p).unwrap();
+    assert!(Command::new("mkfifo").arg(&p).status().unwrap().success());
+    let (code, err, _) = merge_within(&[&d]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("000003.json") && err.contains("FIFO"), "{err}");
+}
+
+#[test]
+fn two_runs_started_at_once_on_one_directory_claim_it_once() {
+    // Two different shards into one directory: exactly one may claim it. Before: both
+    // could pass the exists-then-write check and write into it.
+    let (spec, _) = whole();
+    for _ in 0..5 {
+        let out = keep().join("race");
+        let start = |k: &str| {
+            Command::new(env!("CARGO_BIN_EXE_shellsim"))
+                .args(["explore", "run", "--space", spec.to_str().unwrap()])
+                .args(["--out", out.to_str().unwrap(), "--shard", k])
+                .env("RAYON_NUM_THREADS", "1")
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .unwrap()
+        };
+        let (a, b) = (start("0/2"), start("1/2"));
+        let (a, b) = (a.wait_with_output().unwrap(), b.wait_with_output().unwrap());
+        let codes = [a.status.code(), b.status.code()];
+        assert!(
+            codes.contains(&Some(0)) && codes.contains(&Some(2)),
+            "{codes:?}: {}{}",
+            String::from_utf8_lossy(&a.stderr),
+            String::from_utf8_lossy(&b.stderr)
+        );
+        let loser = if codes[0] == Some(2) { &a } else { &b };
+        assert!(String::from_utf8_lossy(&loser.stderr).contains("another spec or shard"));
+    }
+}
+
+/// Seconds `spec::parse` takes on a spec whose `seed` lists `n` values.
+fn parse_seconds(n: usize) -> f64 {
+    let seeds: Vec<String> = (0..n).map(|i| i.to_string()).collect();
+    let text = format!(
+        "scene = \"scene1.json\"\nlevel = \"float\"\nseed = [{}]\n",
+        seeds.join(", ")
+    );
+    let file = common::scene_path("linear.toml");
+    let start = std::time::Instant::now();
+    let s = shellsim::explore::spec::parse(&text, &file).unwrap();
+    assert_eq!(s.points.len(), n);
+    assert_eq!(
+        s.axes
+            .iter()
+            .find(|a| a.key == "seed")
+            .unwrap()
+            .values
+            .len(),
+        n
+    );
+    start.elapsed().as_secs_f64()
+}
+
+#[test]
+fn a_long_value_list_expands_in_linear_time() {
+    // Before: the axes were built by searching each value's list, quadratic — 100k values
+    // took 24 s, and 80k about 9 times as long as 20k here (linear: 4 times). Four times
+    // the values must take less than 6 times as long.
+    let small = parse_seconds(20_000);
+    let large = parse_seconds(80_000);
+    assert!(
+        large < 6.0 * small.max(0.05),
+        "20k values: {small:.2} s, 80k: {large:.2} s — not linear"
+    );
+}
+
+#[test]
+fn huge_numbers_are_shown_short() {
+    // Before: `source = 1e300` was echoed as 301 digits.
+    let spec = spec_file(&tiny_spec("source = 1e300\n"));
+    let o = run(&spec, &keep().join("out"), None, None);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("line 6") && err.contains("1e300"), "{err}");
+    assert!(!err.contains("0000000000"), "a number printed whole: {err}");
+}
+
+#[test]
+fn a_spec_named_as_an_output_is_refused() {
+    // The spec written where `explore slurm --out DIR` puts explore.sbatch. Before: the
+    // spec was replaced by the script, exit 0.
+    let dir = keep().join("slurm");
+    std::fs::create_dir_all(&dir).unwrap();
+    let spec = dir.join("explore.sbatch");
+    let text = tiny_spec("");
+    std::fs::write(&spec, &text).unwrap();
+    let o = shellsim(
+        &[
+            "explore",
+            "slurm",
+            "--space",
+            spec.to_str().unwrap(),
+            "--tasks",
+            "2",
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+        None,
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--out") && err.contains("is the input"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&spec).unwrap(), text);
+    assert!(!dir.join("submit.sh").exists());
+}

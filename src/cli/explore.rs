@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use crate::explore::{self, slurm, spec, Shard};
-use crate::output::{check_outputs, outln};
+use crate::output::{check_outputs, outln, Output};
 use clap::Subcommand;
 use std::path::PathBuf;
 
@@ -95,7 +95,15 @@ pub fn run(c: &ExploreCmd) -> Result<()> {
             );
         }
         ExploreCmd::Slurm(a) => {
-            spec::load(&a.space)?;
+            let mut outs = vec![Output::dir("--out", &a.out)];
+            outs.extend(
+                ["explore.sbatch", "merge.sbatch", "submit.sh"]
+                    .iter()
+                    .map(|f| Output::file("--out", &a.out.join(f))),
+            );
+            check_outputs(&outs)?;
+            let s = spec::load(&a.space)?;
+            explore::check_points(&s)?;
             let dir = slurm::write(&a.space, a.tasks, &a.out, a.bin.as_deref())?;
             outln!(
                 "wrote {0}/explore.sbatch ({1} tasks), {0}/merge.sbatch and {0}/submit.sh",

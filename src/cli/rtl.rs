@@ -4,6 +4,7 @@
 use super::args::DatapathArgs;
 use crate::error::{Error, Result};
 use crate::output::outln;
+use crate::output::{check_outputs, Output};
 use crate::rtl::cosim::{self, Pressure};
 use crate::rtl::layout::Params;
 use std::path::PathBuf;
@@ -52,6 +53,11 @@ pub struct CostArgs {
 fn run_cost(a: &CostArgs) -> Result<()> {
     use crate::rtl::cost::{fit, synth_cost};
     use crate::rtl::layout::Unit;
+    let outs: Vec<Output> = [("--out", &a.out), ("--csv", &a.csv)]
+        .into_iter()
+        .filter_map(|(o, p)| p.as_deref().map(|p| Output::file(o, p)))
+        .collect();
+    check_outputs(&outs)?;
     let base = a.datapath.resolve_config()?;
     let widths: Vec<u32> = match a.sweep {
         Some((lo, hi)) => (lo..=hi).collect(),
@@ -120,6 +126,7 @@ pub fn run_rtl(a: &RtlArgs) -> Result<()> {
             "shellsim rtl needs --out DIR (or the subcommand `cost`)".into(),
         ));
     };
+    check_outputs(&[Output::dir("--out", out)])?;
     let cfg = a.datapath.resolve_config()?;
     let p = Params::new(&cfg)?;
     let what = a
@@ -174,6 +181,15 @@ pub struct CosimArgs {
 
 /// Runs `shellsim cosim`.
 pub fn run_cosim(a: &CosimArgs) -> Result<()> {
+    let mut outs = Vec::new();
+    if let Some(f) = &a.fst {
+        outs.push(Output::file("--fst", f));
+        outs.push(Output::file("--fst (its .gtkw)", &f.with_extension("gtkw")));
+    }
+    if let Some(j) = &a.json {
+        outs.push(Output::file("--json", j));
+    }
+    check_outputs(&outs)?;
     for (flag, v) in [("--offer", a.offer), ("--take", a.take)] {
         if !(v > 0.0 && v <= 1.0) {
             return Err(Error::Usage(format!("{flag} {v} is not in (0, 1]")));

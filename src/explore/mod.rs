@@ -233,10 +233,14 @@ pub fn spec_file(spec: &Spec, shard: Option<Shard>) -> SpecFile {
     }
 }
 
-/// A cached reference, `DIR/reference/SCENE-SOURCE.json`.
+/// A cached reference, `DIR/reference/SCENE-SOURCE-KEY.json`: KEY is [`reference_key`],
+/// a hash of the scene's content and the reference's parameters, so that two scenes that
+/// share a name (every seed of a `scene gen` kind does) never share a reference.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 struct ReferenceFile {
     scene: String,
+    /// [`reference_key`], in hex.
+    key: String,
     source: u32,
     rays: usize,
     directions: String,
@@ -245,17 +249,27 @@ struct ReferenceFile {
     ff: Vec<f64>,
 }
 
+/// The cache key of a reference: FNV-1a of the scene's content (its patches, bounds and
+/// name as JSON) and the reference's parameters (source, rays, directions, seed).
+fn reference_key(scene: &crate::scene::Scene, source: u32, rays: usize) -> String {
+    let h = spec::fnv1a(scene.to_json_string().as_bytes(), spec::FNV_START);
+    let params = format!("{source}/{rays}/malley/{}", size::REFERENCE_SEED);
+    format!("{:016x}", spec::fnv1a(params.as_bytes(), h))
+}
+
 /// The high-ray float reference of `scene` from `source` (Malley directions, the sizing's
 /// reference seed), read from `dir`'s cache or computed and cached.
 fn reference(spec: &Spec, scene: usize, source: u32, rays: usize, dir: &Path) -> Result<Vec<f64>> {
     let sc = &spec.scenes[scene];
+    let key = reference_key(&sc.scene, source, rays);
     let path = dir.join("reference").join(format!(
-        "{}-{source}.json",
+        "{}-{source}-{key}.json",
         output::file_stem(&sc.scene.name)
     ));
-    if let Ok(text) = std::fs::read_to_string(&path) {
-        if let Ok(r) = serde_json::from_str::<ReferenceFile>(&text) {
-            if r.scene == sc.scene.name
+    if std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_file()) {
+        let text = crate::limits::read_own(&path)?;
+        if let Ok(r) = serde_json::from_slice::<ReferenceFile>(&text) {
+            if r.key == key
                 && r.source == source
                 && r.rays == rays
                 && r.seed == size::REFERENCE_SEED
@@ -281,6 +295,7 @@ fn reference(spec: &Spec, scene: usize, source: u32, rays: usize, dir: &Path) ->
         &path,
         &ReferenceFile {
             scene: sc.scene.name.clone(),
+            key,
             source,
             rays,
             directions: "malley".into(),
@@ -289,6 +304,52 @@ fn reference(spec: &Spec, scene: usize, source: u32, rays: usize, dir: &Path) ->
         },
     )?;
     Ok(ff)
+}
+
+/// Checks every point of `spec` against its scene before the first one runs: the source
+/// exists, the rays are in range for the level, the configuration resolves on the scene's
+/// size, the grid can be built on that cell size and (fixed and machine levels) the scene
+/// fits the datapath. Each grid and fixed-point scene is built once per distinct scene,
+/// cell size and datapath. An error names the spec's file and the point.
+pub fn check_points(spec: &Spec) -> Result<()> {
+    use std::collections::BTreeSet;
+    let mut grids: BTreeSet<(usize, u64)> = BTreeSet::new();
+    let mut fixed: BTreeSet<(usize, u64, String)> = BTreeSet::new();
+    for pt in &spec.points {
+        let sc = &spec.scenes[pt.scene];
+        let at = |e: Error| {
+            let what = match e {
+                Error::Input { file, place, what } => {
+                    format!("{}: {place}: {what}", file.display())
+                }
+                e => e.to_string(),
+            };
+            Error::input(
+                &spec.file,
+                format!("point {}", pt.index),
+                format!("{}: {what}", pt.label()),
+            )
+        };
+        crate::radiosity::matrix::validate(&pt.matrix_spec(pt.level), &sc.scene, &sc.path)
+            .map_err(at)?;
+        let resolved = crate::config::resolve(&pt.config, sc.scene.size()).map_err(at)?;
+        let cell = resolved.machine.cell_size.value();
+        if grids.insert((pt.scene, cell.to_bits())) {
+            crate::reference::tracer::Tracer::new(&sc.scene, cell)
+                .map_err(|e| at(e.for_scene(&sc.path)))?;
+        }
+        if pt.level != Model::Float
+            && fixed.insert((
+                pt.scene,
+                cell.to_bits(),
+                format!("{:?}", pt.config.datapath),
+            ))
+        {
+            crate::fixed::records::HostFixed::new(&sc.scene, &sc.path, pt.config.datapath, cell)
+                .map_err(at)?;
+        }
+    }
+    Ok(())
 }
 
 /// Measures point `pt` against `reference` (by patch).
@@ -390,20 +451,134 @@ pub struct RunSummary {
 /// Reads `dir/spec.json`, if there is one.
 fn read_spec_file(dir: &Path) -> Result<Option<SpecFile>> {
     let path = dir.join("spec.json");
-    match std::fs::read_to_string(&path) {
+    match std::fs::metadata(&path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
         Err(e) => Err(Error::unreadable(&path, e)),
-        Ok(text) => serde_json::from_str(&text)
-            .map(Some)
-            .map_err(|e| Error::input(&path, format!("line {}", e.line()), e.to_string())),
+        Ok(_) => {
+            let sf: SpecFile = serde_json::from_slice(&crate::limits::read_own(&path)?)
+                .map_err(|e| Error::input(&path, format!("line {}", e.line()), e.to_string()))?;
+            if sf.spec_hash.len() != 16 || !sf.spec_hash.bytes().all(|b| b.is_ascii_hexdigit()) {
+                return Err(Error::input(
+                    &path,
+                    "spec_hash",
+                    format!(
+                        "{:?} is not a spec's hash (16 hexadecimal digits)",
+                        crate::error::shown(&sf.spec_hash)
+                    ),
+                ));
+            }
+            if !(1..=spec::MAX_POINTS).contains(&sf.points) {
+                return Err(Error::input(
+                    &path,
+                    "points",
+                    format!(
+                        "{} points: a spec expands to 1..={}",
+                        sf.points,
+                        spec::MAX_POINTS
+                    ),
+                ));
+            }
+            Ok(Some(sf))
+        }
     }
 }
 
-/// A point's file in `dir`, when it holds a point of the spec `hash`.
-fn read_point(dir: &Path, i: usize, hash: &str) -> Option<PointFile> {
-    let text = std::fs::read_to_string(point_file(dir, i)).ok()?;
-    let f: PointFile = serde_json::from_str(&text).ok()?;
-    (f.spec_hash == hash && f.point.index == i).then_some(f)
+/// A point's file in `dir`, when it holds a point of the spec `hash`; `None` when there is
+/// none, or (unless `strict`) it is not one (it is measured again). A FIFO, device or
+/// directory there, or a file past the input limit, is refused (bad input); so is, when
+/// `strict` (`merge`), a file that is not a point file or holds another point or spec.
+fn read_point(dir: &Path, i: usize, hash: &str, strict: bool) -> Result<Option<PointFile>> {
+    let path = point_file(dir, i);
+    if std::fs::symlink_metadata(&path).is_err() {
+        return Ok(None);
+    }
+    let bytes = crate::limits::read_own(&path)?;
+    match serde_json::from_slice::<PointFile>(&bytes) {
+        Ok(f) if f.spec_hash == hash && f.point.index == i => Ok(Some(f)),
+        Ok(f) if strict && f.point.index != i => Err(Error::input(
+            &path,
+            "index",
+            format!("holds point {}, not point {i}", f.point.index),
+        )),
+        Ok(f) if strict => Err(Error::input(
+            &path,
+            "spec_hash",
+            format!(
+                "a point of another spec (hash {}) than {} (hash {hash})",
+                crate::error::shown(&f.spec_hash),
+                dir.join("spec.json").display()
+            ),
+        )),
+        Err(e) if strict => Err(Error::input(
+            &path,
+            format!("line {}", e.line()),
+            format!("not a point file: {e}"),
+        )),
+        _ => Ok(None),
+    }
+}
+
+/// The indices below `points` of the point files in `dir/points` (names `NNNNNN.json`),
+/// from the directory's listing, so that nothing is tried for a point with no file.
+fn point_indices(dir: &Path, points: usize) -> Result<Vec<usize>> {
+    let pd = dir.join("points");
+    let list = match std::fs::read_dir(&pd) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
+        Err(e) => return Err(Error::unreadable(&pd, e)),
+        Ok(l) => l,
+    };
+    let mut v = Vec::new();
+    for e in list {
+        let e = e.map_err(|e| Error::unreadable(&pd, e))?;
+        let name = e.file_name();
+        let Some(stem) = name.to_str().and_then(|n| n.strip_suffix(".json")) else {
+            continue;
+        };
+        if stem.len() < 6 || !stem.bytes().all(|b| b.is_ascii_digit()) {
+            continue;
+        }
+        if let Ok(i) = stem.parse::<usize>() {
+            if i < points && point_file(dir, i) == e.path() {
+                v.push(i);
+            }
+        }
+    }
+    v.sort_unstable();
+    Ok(v)
+}
+
+/// Claims `dir` for `sf`'s run: `dir/spec.json` is created complete and atomically (a
+/// temporary file hard-linked into place, which fails when the name exists), so that of
+/// two runs started at once on one directory exactly one writes it; the other — and a
+/// later run — finds it and is refused unless it holds the same spec and shard.
+fn claim(dir: &Path, sf: &SpecFile) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let path = dir.join("spec.json");
+    let (tmp, mut f) = output::TempFile::create(&dir.join(".spec.json.claim"))?;
+    use std::io::Write;
+    f.write_all(output::json_string(sf).as_bytes())
+        .and_then(|_| f.sync_all())
+        .map_err(|e| Error::io(&path, e))?;
+    drop(f);
+    let exists = |e: &std::io::Error| e.kind() == std::io::ErrorKind::AlreadyExists;
+    match std::fs::hard_link(tmp.tmp_path(), &path) {
+        Ok(()) => Ok(()),
+        Err(e) if exists(&e) => check_same_spec(dir, sf),
+        // A file system without hard links: created exclusively, written in place.
+        Err(_) => match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&path)
+        {
+            Ok(mut f) => f
+                .write_all(output::json_string(sf).as_bytes())
+                .and_then(|_| f.sync_all())
+                .map_err(|e| Error::io(&path, e)),
+            Err(e) if exists(&e) => check_same_spec(dir, sf),
+            Err(e) => Err(Error::io(&path, e)),
+        },
+    }
+    // `tmp` is dropped here: the temporary name is removed, spec.json stays.
 }
 
 /// Runs `spec` (or one shard of it) into `dir`: points already there are kept, the others
@@ -417,16 +592,16 @@ pub fn run(
 ) -> Result<RunSummary> {
     let shard = shard.filter(|s| s.n > 1);
     let sf = spec_file(spec, shard);
-    check_same_spec(dir, &sf)?;
-    output::write_json(&dir.join("spec.json"), &sf)?;
     let mine: Vec<&Point> = spec
         .points
         .iter()
         .filter(|p| shard.is_none_or(|s| s.holds(p.index)))
         .collect();
+    check_points(spec)?;
+    claim(dir, &sf)?;
     let mut done: BTreeMap<usize, PointFile> = BTreeMap::new();
     for p in &mine {
-        if let Some(f) = read_point(dir, p.index, &spec.hash) {
+        if let Some(f) = read_point(dir, p.index, &spec.hash, false)? {
             done.insert(p.index, f);
         }
     }
@@ -495,7 +670,7 @@ fn check_same_spec(dir: &Path, sf: &SpecFile) -> Result<()> {
                 &dir.join("spec.json"),
                 "spec_hash",
                 format!(
-                    "this directory holds a run of another spec or shard (hash {}, shard {}); this one is hash {}, shard {}: give another --out or remove it",
+                    "this directory holds a run of another spec or shard (hash {}, shard {}); this one is hash {}, shard {}: write into another directory or remove it",
                     old.spec_hash,
                     shard_name(old.shard),
                     sf.spec_hash,
@@ -549,15 +724,51 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
         }
     }
     let (mut whole, _) = sf.expect("at least one shard");
-    let mut files: BTreeMap<usize, PointFile> = BTreeMap::new();
+    // The point files present, from the directories' listings: a spec.json whose `points`
+    // is larger than the files there is refused before any point is read.
+    let mut present: Vec<(usize, &PathBuf)> = Vec::new();
     for d in shards {
+        present.extend(point_indices(d, whole.points)?.into_iter().map(|i| (i, d)));
+    }
+    let mut have: Vec<usize> = present.iter().map(|p| p.0).collect();
+    have.sort_unstable();
+    have.dedup();
+    if have.len() < whole.points {
+        let mut missing = Vec::new();
+        let mut k = 0;
         for i in 0..whole.points {
-            if files.contains_key(&i) {
-                continue;
+            if k < have.len() && have[k] == i {
+                k += 1;
+            } else if missing.len() < 10 {
+                missing.push(i);
+            } else {
+                break;
             }
-            if let Some(f) = read_point(d, i, &whole.spec_hash) {
-                files.insert(i, f);
-            }
+        }
+        let shown: Vec<String> = missing.iter().map(|i| i.to_string()).collect();
+        return Err(Error::input(
+            &first.join("spec.json"),
+            "points",
+            format!(
+                "{} of {} points are in no shard (points {}{}): a shard has not finished",
+                whole.points - have.len(),
+                whole.points,
+                shown.join(", "),
+                if whole.points - have.len() > 10 {
+                    ", …"
+                } else {
+                    ""
+                }
+            ),
+        ));
+    }
+    let mut files: BTreeMap<usize, PointFile> = BTreeMap::new();
+    for (i, d) in present {
+        if files.contains_key(&i) {
+            continue;
+        }
+        if let Some(f) = read_point(d, i, &whole.spec_hash, true)? {
+            files.insert(i, f);
         }
     }
     let missing: Vec<usize> = (0..whole.points)
@@ -566,7 +777,7 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
     if !missing.is_empty() {
         let shown: Vec<String> = missing.iter().take(10).map(|i| i.to_string()).collect();
         return Err(Error::input(
-            first,
+            &first.join("spec.json"),
             "points",
             format!(
                 "{} of {} points are in no shard (points {}{}): a shard has not finished",

@@ -59,7 +59,7 @@ impl std::fmt::Display for Val {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Val::Int(v) => write!(f, "{v}"),
-            Val::Float(v) => write!(f, "{v}"),
+            Val::Float(v) => write!(f, "{}", crate::error::short(*v)),
             Val::Str(v) => write!(f, "{v}"),
             Val::Bool(v) => write!(f, "{v}"),
         }
@@ -569,7 +569,9 @@ pub fn parse(text: &str, file: &Path) -> Result<Spec> {
             }
         }
     }
-    // The axes: every key's values in first-seen order.
+    // The axes: every key's values in first-seen order (a set per axis: linear in the
+    // points, where a search of the list was quadratic in a long list of values).
+    let mut seen: Vec<std::collections::HashSet<String>> = Vec::new();
     for pt in &b.points {
         for k in &pt.knobs {
             let i = match b.axes.iter().position(|a| a.key == k.key) {
@@ -579,10 +581,11 @@ pub fn parse(text: &str, file: &Path) -> Result<Spec> {
                         key: k.key.clone(),
                         values: Vec::new(),
                     });
+                    seen.push(Default::default());
                     b.axes.len() - 1
                 }
             };
-            if !b.axes[i].values.contains(&k.value) {
+            if seen[i].insert(k.value.clone()) {
                 b.axes[i].values.push(k.value.clone());
             }
         }

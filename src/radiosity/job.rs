@@ -111,7 +111,10 @@ pub fn solve_model(
         energy,
         b,
         ..
-    } = solve::solve(&m, scene, params)?;
+    } = {
+        solve::check_solvable(&m, scene, file)?;
+        solve::solve(&m, scene, params)?
+    };
     Ok(Solved {
         model,
         matrix: m,

@@ -744,26 +744,15 @@ pub fn write(path: &Path, m: &FormMatrix, summary: &Summary) -> Result<()> {
 /// Reads a full matrix of `scene` from a Matrix Market file: it must be n × n for the
 /// scene's n patches, every entry finite and in [0, 1], every row sum at most 1 (+1e-9);
 /// when its summary lies beside it, it must name the same scene. The escaped weight of a
-/// row is 1 − its sum (the file does not tell escaped from back-side weight). Bad files are `Error::Input` naming the file and what is wrong.
+/// row is 1 − its sum (the file does not tell escaped from back-side weight). The file is
+/// read through the input limit ([`crate::limits::read_input`]). Bad files are
+/// `Error::Input` naming the file, the line and what is wrong.
 pub fn read(path: &Path, scene: &Scene) -> Result<FormMatrix> {
-    let text = std::fs::read(path).map_err(|e| Error::unreadable(path, e))?;
-    let tri: sprs::TriMat<f64> = sprs::io::read_matrix_market_from_bufread(&mut text.as_slice())
-        .map_err(|e| Error::input(path, "file", format!("not a Matrix Market matrix: {e}")))?;
-    let n = scene.patches.len();
-    if tri.rows() != n || tri.cols() != n {
-        return Err(Error::input(
-            path,
-            "size",
-            format!(
-                "{}×{} does not fit scene {} with {n} patches (a matrix of another scene?)",
-                tri.rows(),
-                tri.cols(),
-                scene.name
-            ),
-        ));
-    }
+    let bytes = crate::limits::read_input(path)?;
+    let m = from_bytes(&bytes, path, scene)?;
     let sp = summary_path(path);
-    if let Ok(s) = std::fs::read_to_string(&sp) {
+    if std::fs::metadata(&sp).is_ok_and(|m| m.is_file()) {
+        let s = crate::limits::utf8(&sp, crate::limits::read_regular(&sp)?)?;
         #[derive(Deserialize)]
         struct Head {
             scene: String,
@@ -776,23 +765,208 @@ pub fn read(path: &Path, scene: &Scene) -> Result<FormMatrix> {
                 "scene",
                 format!(
                     "computed for scene {} (see {}), not {}",
-                    head.scene,
+                    crate::error::shown(&head.scene),
                     sp.display(),
                     scene.name
                 ),
             ));
         }
     }
-    let mut dense: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
-    for (v, (i, j)) in tri.triplet_iter() {
-        if !v.is_finite() || !(0.0..=1.0).contains(v) {
-            return Err(Error::input(
-                path,
-                format!("entry ({}, {})", i + 1, j + 1),
-                format!("{v} is not a form factor (finite, in [0, 1])"),
+    Ok(m)
+}
+
+/// A token of a file as a message shows it: control characters escaped, at most 40
+/// characters (a 300-digit number is cut, with `…`).
+fn token(t: &str) -> String {
+    let s = crate::error::shown(t);
+    match s.char_indices().nth(40) {
+        Some((i, _)) => format!("{}…", &s[..i]),
+        None => s,
+    }
+}
+
+/// Parses a Matrix Market file's text (`coordinate real general`, 1-based, as `shellsim
+/// matrix` writes it) into its entries, 0-based, for an `n` × `n` matrix. Strict: the
+/// header line, then `%` comments, then the size line `rows cols entries`, which must be
+/// `n n k` with `k` at most n²; then exactly `k` entry lines `i j value`, each index in
+/// 1..=n. Nothing is allocated from the declared count: entries are collected as they are
+/// read. Errors are `Error::Input` on `path` naming the line.
+pub fn parse_matrix_market(
+    bytes: &[u8],
+    path: &Path,
+    n: usize,
+) -> Result<Vec<(usize, usize, f64)>> {
+    let at = |line: usize, what: String| Error::input(path, format!("line {line}"), what);
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let line = bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1;
+        at(line, "not UTF-8 text".into())
+    })?;
+    let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
+    let Some((_, head)) = lines.next() else {
+        return Err(at(
+            1,
+            "empty: not a Matrix Market file (no %%MatrixMarket header)".into(),
+        ));
+    };
+    let words: Vec<String> = head
+        .split_whitespace()
+        .map(|w| w.to_ascii_lowercase())
+        .collect();
+    let words: Vec<&str> = words.iter().map(|w| w.as_str()).collect();
+    match words.as_slice() {
+        ["%%matrixmarket", "matrix", "coordinate", "real" | "integer" | "double", "general"] => {}
+        ["%%matrixmarket", ..] => {
+            return Err(at(
+                1,
+                format!(
+                    "header {:?}: only `%%MatrixMarket matrix coordinate real general` is read",
+                    token(head)
+                ),
+            ))
+        }
+        _ => {
+            return Err(at(
+                1,
+                format!(
+                    "{:?} is not a Matrix Market header (`%%MatrixMarket matrix coordinate real general`)",
+                    token(head)
+                ),
+            ))
+        }
+    }
+    // The size line: the first line that is not a comment.
+    let (size_line, size) = loop {
+        match lines.next() {
+            None => {
+                return Err(at(
+                    text.lines().count().max(1),
+                    "ends before the size line (rows columns entries)".into(),
+                ))
+            }
+            Some((_, l)) if l.trim_start().starts_with('%') => {}
+            Some((i, l)) if l.trim().is_empty() => {
+                return Err(at(
+                    i,
+                    "an empty line where the size line (rows columns entries) belongs".into(),
+                ))
+            }
+            Some(x) => break x,
+        }
+    };
+    let parse_count = |w: &str, what: &str| -> Result<u64> {
+        w.parse::<u64>().map_err(|_| {
+            at(
+                size_line,
+                format!("size line: {:?} is not a count of {what}", token(w)),
+            )
+        })
+    };
+    let f: Vec<&str> = size.split_whitespace().collect();
+    let [r, c, k] = f.as_slice() else {
+        return Err(at(
+            size_line,
+            format!(
+                "size line {:?}: want three counts, rows columns entries",
+                token(size)
+            ),
+        ));
+    };
+    let (rows, cols, k) = (
+        parse_count(r, "rows")?,
+        parse_count(c, "columns")?,
+        parse_count(k, "entries")?,
+    );
+    if rows != n as u64 || cols != n as u64 {
+        return Err(at(
+            size_line,
+            format!(
+                "a {}×{} matrix does not fit the scene's {n} patches (a matrix of another scene?)",
+                token(r),
+                token(c)
+            ),
+        ));
+    }
+    let most = (n as u64).saturating_mul(n as u64);
+    if k > most {
+        return Err(at(
+            size_line,
+            format!(
+                "declares {} entries, more than a {n}×{n} matrix holds ({most})",
+                token(&k.to_string())
+            ),
+        ));
+    }
+    let mut out = Vec::new();
+    let mut last = size_line;
+    for (i, l) in lines {
+        last = i;
+        let t = l.trim();
+        if t.is_empty() || t.starts_with('%') {
+            continue;
+        }
+        if out.len() as u64 == k {
+            return Err(at(
+                i,
+                format!("an entry past the {k} the size line (line {size_line}) declares"),
             ));
         }
-        dense[i].push((j as u32, *v));
+        let f: Vec<&str> = t.split_whitespace().collect();
+        let [a, b, v] = f.as_slice() else {
+            return Err(at(
+                i,
+                format!("{:?}: want an entry `row column value`", token(t)),
+            ));
+        };
+        let index = |w: &str, what: &str| -> Result<usize> {
+            match w.parse::<u64>() {
+                Ok(x) if (1..=n as u64).contains(&x) => Ok(x as usize - 1),
+                Ok(_) => Err(at(
+                    i,
+                    format!("{what} {} is out of range (1..={n})", token(w)),
+                )),
+                Err(_) => Err(at(i, format!("{what} {:?} is not an index", token(w)))),
+            }
+        };
+        let (a, b) = (index(a, "row")?, index(b, "column")?);
+        let v: f64 = v
+            .parse()
+            .map_err(|_| at(i, format!("value {:?} is not a number", token(v))))?;
+        if !v.is_finite() || !(0.0..=1.0).contains(&v) {
+            return Err(at(
+                i,
+                format!(
+                    "entry ({}, {}) = {} is not a form factor (finite, in [0, 1])",
+                    a + 1,
+                    b + 1,
+                    crate::error::short(v)
+                ),
+            ));
+        }
+        out.push((a, b, v));
+    }
+    if (out.len() as u64) < k {
+        return Err(at(
+            last,
+            format!(
+                "the size line (line {size_line}) declares {k} entries, the file ends after {}",
+                out.len()
+            ),
+        ));
+    }
+    Ok(out)
+}
+
+/// [`read`] on a file's bytes, without its summary: the matrix of `scene` in `path`.
+pub fn from_bytes(bytes: &[u8], path: &Path, scene: &Scene) -> Result<FormMatrix> {
+    let n = scene.patches.len();
+    let entries = parse_matrix_market(bytes, path, n)?;
+    let mut dense: Vec<Vec<(u32, f64)>> = vec![Vec::new(); n];
+    for (i, j, v) in entries {
+        dense[i].push((j as u32, v));
     }
     let mut rows = Vec::with_capacity(n);
     for (i, mut e) in dense.into_iter().enumerate() {
@@ -809,7 +983,7 @@ pub fn read(path: &Path, scene: &Scene) -> Result<FormMatrix> {
             return Err(Error::input(
                 path,
                 format!("row {}", i + 1),
-                format!("sums to {s}, above 1"),
+                format!("sums to {}, above 1", crate::error::short(s)),
             ));
         }
         rows.push(Row {

@@ -231,6 +231,79 @@ fn energy_of(l: &Links, m: &FormMatrix, scene: &Scene, b: &[[f64; 3]]) -> Energy
     }
 }
 
+/// Refuses a scene whose light is never absorbed: in a channel, a set of patches that
+/// reflect all they receive (reflectance 1) and whose rays never leave the set (no escape,
+/// no back side), reached by an emitter, holds ever more energy — B = E + ρFB has no finite
+/// solution and no solver converges. Bad input in `file` (exit status 2) naming the channel
+/// and a patch, checked before solving.
+pub fn check_solvable(m: &FormMatrix, scene: &Scene, file: &Path) -> Result<()> {
+    let n = scene.patches.len();
+    if m.rows.len() != n {
+        return Ok(());
+    }
+    // Reversed edges j ← i for F_ij > 0, to walk back from the patches that lose light.
+    let mut into: Vec<Vec<u32>> = vec![Vec::new(); n];
+    for r in &m.rows {
+        for &(j, f) in &r.entries {
+            if f > 0.0 && (j as usize) < n {
+                into[j as usize].push(r.source);
+            }
+        }
+    }
+    const NAMES: [&str; 3] = ["red", "green", "blue"];
+    for (c, channel) in NAMES.iter().enumerate() {
+        // Patches that lose light (absorb some, or let some escape or reach a back side),
+        // and every patch whose light reaches one of them.
+        let mut ok = vec![false; n];
+        let mut stack: Vec<u32> = Vec::new();
+        for (i, r) in m.rows.iter().enumerate() {
+            let rho = scene.patches[i].reflectance.rgb()[c];
+            if rho < 1.0 || r.escaped + r.back > 1e-12 {
+                ok[i] = true;
+                stack.push(i as u32);
+            }
+        }
+        while let Some(j) = stack.pop() {
+            for &i in &into[j as usize] {
+                if !ok[i as usize] {
+                    ok[i as usize] = true;
+                    stack.push(i);
+                }
+            }
+        }
+        if ok.iter().all(|&o| o) {
+            continue;
+        }
+        // Light from an emitter that reaches a lossless patch is never absorbed.
+        let mut seen = vec![false; n];
+        let mut stack: Vec<u32> = (0..n as u32)
+            .filter(|&i| scene.patches[i as usize].emission.rgb()[c] > 0.0)
+            .collect();
+        for &i in &stack {
+            seen[i as usize] = true;
+        }
+        while let Some(i) = stack.pop() {
+            if !ok[i as usize] {
+                let lossless = ok.iter().filter(|&&o| !o).count();
+                return Err(Error::input(
+                    file,
+                    "reflectance",
+                    format!(
+                        "the {channel} light reaches {lossless} patches of reflectance 1 whose rays never leave them (patch {i} is one): it is never absorbed and the radiosity has no finite solution; give some of them a reflectance below 1, or open the scene"
+                    ),
+                ));
+            }
+            for &(j, f) in &m.rows[i as usize].entries {
+                if f > 0.0 && (j as usize) < n && !seen[j as usize] {
+                    seen[j as usize] = true;
+                    stack.push(j);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Solves the matrix `m` of `scene` in `p.system`. `Error::Param` when the matrix is not
 /// full or a parameter is out of range.
 pub fn solve(m: &FormMatrix, scene: &Scene, p: SolveParams) -> Result<Solution> {

@@ -412,7 +412,7 @@ pub fn import_bytes(
             mtl_error.borrow_mut().get_or_insert(e);
             Err(tobj::LoadError::MaterialParseError)
         };
-        match std::fs::read_to_string(&full) {
+        let text = match std::fs::metadata(&full) {
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
                 warnings.borrow_mut().push(format!(
                     "material library {} not found: every face gets the default material (reflectance {}, emission {})",
@@ -420,19 +420,24 @@ pub fn import_bytes(
                     opts.reflectance,
                     opts.emission
                 ));
-                Err(tobj::LoadError::OpenFileFailed)
+                return Err(tobj::LoadError::OpenFileFailed);
             }
-            Err(e) if e.kind() == std::io::ErrorKind::InvalidData => fail(Error::input(
-                &full,
-                "file",
-                "not a material library: not UTF-8 text",
-            )),
-            Err(_) if full.is_dir() => fail(Error::input(
-                &full,
-                "material library",
-                "is a directory, not a material library (.mtl file)",
-            )),
-            Err(e) => fail(Error::unreadable(&full, e)),
+            Ok(m) if m.is_dir() => {
+                return fail(Error::input(
+                    &full,
+                    "material library",
+                    "is a directory, not a material library (.mtl file)",
+                ))
+            }
+            // Capped, refused when it is a FIFO or device, or one of the outputs.
+            _ => crate::limits::read_regular(&full).and_then(|b| {
+                String::from_utf8(b).map_err(|_| {
+                    Error::input(&full, "file", "not a material library: not UTF-8 text")
+                })
+            }),
+        };
+        match text {
+            Err(e) => fail(e),
             Ok(t) => match prepare_mtl(&t) {
                 Err(what) => fail(Error::input(&full, "material library", what)),
                 Ok(t) => match tobj::load_mtl_buf(&mut t.as_bytes()) {
