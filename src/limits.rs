@@ -1,7 +1,7 @@
 //! Resource limits, stated and overridable: the largest input file read
 //! ([`DEFAULT_MAX_INPUT`], 1 GiB; `SHELLSIM_MAX_INPUT`) and the most memory a job may plan
 //! to use ([`DEFAULT_MAX_MEMORY`], 16 GiB, or half the machine's memory if less;
-//! `SHELLSIM_MAX_MEMORY`). Inputs are read through [`read_input`], which stops one byte past
+//! `SHELLSIM_MAX_MEMORY`; never past the process's RLIMIT_AS or its cgroup's limit). Inputs are read through [`read_input`], which stops one byte past
 //! the limit, so `--scene /dev/zero` ends with an error instead of filling memory; a job
 //! whose estimate ([`check_memory`]) is past the limit is refused before it allocates.
 //! Values are bytes, with an optional `K`, `M`, `G` or `T` suffix (powers of 1024).
@@ -62,10 +62,60 @@ fn half_the_machine() -> Option<u64> {
     Some(kib * 1024 / 2)
 }
 
-/// The most memory a job may plan to use.
+/// The address-space limit (`ulimit -v`, RLIMIT_AS) from /proc/self/limits, if one is set.
+fn address_space_limit() -> Option<u64> {
+    let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = limits.lines().find(|l| l.starts_with("Max address space"))?;
+    // "Max address space   <soft>   <hard>   bytes": the soft limit binds.
+    line.split_whitespace().nth(3)?.parse().ok()
+}
+
+/// The memory limit of this process's cgroup (v2 `memory.max`, or v1
+/// `memory.limit_in_bytes`) — what a Slurm job or a container gets — if one is set.
+fn cgroup_limit() -> Option<u64> {
+    let cgroups = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let mut best: Option<u64> = None;
+    for line in cgroups.lines() {
+        // "0::/path" (v2) or "N:memory:/path" (v1).
+        let mut parts = line.splitn(3, ':');
+        let (_, controllers, path) = (parts.next()?, parts.next()?, parts.next()?);
+        let file = if controllers.is_empty() {
+            format!("/sys/fs/cgroup{path}/memory.max")
+        } else if controllers.split(',').any(|c| c == "memory") {
+            format!("/sys/fs/cgroup/memory{path}/memory.limit_in_bytes")
+        } else {
+            continue;
+        };
+        if let Some(v) = std::fs::read_to_string(file)
+            .ok()
+            .and_then(|t| t.trim().parse::<u64>().ok())
+        {
+            best = Some(best.map_or(v, |b| b.min(v)));
+        }
+    }
+    best
+}
+
+/// The most memory a job may plan to use: `SHELLSIM_MAX_MEMORY`, else the smaller of
+/// 16 GiB and half the machine's memory — and never more than the process's address-space
+/// limit (RLIMIT_AS) or its cgroup's memory limit, whichever is smallest.
 pub fn max_memory() -> Result<u64> {
+    Ok(memory_limit()?.0)
+}
+
+/// [`max_memory`] and what would raise it.
+fn memory_limit() -> Result<(u64, &'static str)> {
     let default = half_the_machine().map_or(DEFAULT_MAX_MEMORY, |h| h.min(DEFAULT_MAX_MEMORY));
-    limit(MAX_MEMORY_VAR, default)
+    let mut best = (limit(MAX_MEMORY_VAR, default)?, "$SHELLSIM_MAX_MEMORY raises it");
+    for (l, what) in [
+        (address_space_limit(), "the process's address-space limit, ulimit -v, binds"),
+        (cgroup_limit(), "the cgroup's memory limit (a Slurm job's or a container's) binds"),
+    ] {
+        if let Some(l) = l.filter(|&l| l < best.0) {
+            best = (l, what);
+        }
+    }
+    Ok(best)
 }
 
 /// A byte count as people read it: `9.6 GB`, `512 kB`, `17 B`.
@@ -164,12 +214,12 @@ pub fn read_input_string(path: &Path) -> Result<String> {
 /// on `key` (the flag or parameter that asked for it), the value first, then the estimate
 /// and the limit.
 pub fn check_memory(key: &str, value: &str, what: &str, estimate: u64) -> Result<()> {
-    let limit = max_memory()?;
+    let (limit, raise) = memory_limit()?;
     if estimate > limit {
         return Err(Error::param(
             key,
             format!(
-                "{value}: {what} would need about {} of memory, more than the limit of {} (${MAX_MEMORY_VAR} raises it)",
+                "{value}: {what} would need about {} of memory, more than the limit of {} ({raise})",
                 human(estimate),
                 human(limit)
             ),
@@ -181,10 +231,10 @@ pub fn check_memory(key: &str, value: &str, what: &str, estimate: u64) -> Result
 /// Refuses a machine whose state (estimated from its configuration) is past
 /// [`max_memory`]: a usage error (exit status 2) with the estimate and the limit.
 pub fn check_machine_memory(estimate: u64) -> Result<()> {
-    let limit = max_memory()?;
+    let (limit, raise) = memory_limit()?;
     if estimate > limit {
         return Err(Error::Usage(format!(
-            "the machine configuration (clusters × CTUs, ray buffer, patch buffer and request queue capacities) would need about {} of memory for its state, more than the limit of {} (${MAX_MEMORY_VAR} raises it); make the machine or its buffers smaller",
+            "the machine configuration (clusters × CTUs, ray buffer, patch buffer and request queue capacities) would need about {} of memory for its state, more than the limit of {} ({raise}); make the machine or its buffers smaller",
             human(estimate),
             human(limit)
         )));

@@ -670,3 +670,27 @@ fn matrix_memory_is_estimated_and_announced() {
     let est = num.parse::<f64>().unwrap() * scale;
     assert!((est / bytes - 1.0).abs() < 0.25, "{est} vs {bytes}");
 }
+
+/// Under an address-space limit (`ulimit -v`, as a batch system sets it) the limit is the
+/// smaller of it and the default: the 20 M-ray row is refused with exit 2 naming that
+/// limit, not aborted by a failed allocation.
+#[test]
+fn the_address_space_limit_binds_the_memory_estimate() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.mtx");
+    let scene = common::scene_path("scene2.json");
+    let o = Command::new("bash")
+        .args(["-c", "ulimit -v 2000000 && exec \"$0\" \"$@\""])
+        .arg(env!("CARGO_BIN_EXE_shellsim"))
+        .args(["matrix", "--scene", scene.to_str().unwrap(), "--model", "float"])
+        .args(["--rays", "20000000", "--sources", "0..1", "--out"])
+        .arg(&out)
+        .env_remove("SHELLSIM_MAX_MEMORY")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("more than the limit of 2.0 GB"), "{err}");
+    assert!(err.contains("ulimit -v"), "{err}");
+    assert!(!out.exists());
+}

@@ -193,7 +193,8 @@ pub fn run(
             let pa = render::picture(scene, &hits, &sa.b, im.shading);
             let pb = render::picture(scene, &hits, &sb.b, im.shading);
             let rel = relative(&sa.b, &sb.b);
-            let scale = render::nice_scale(cmp.max_rel.max(1e-6));
+            let dark: Vec<bool> = sa.b.iter().map(|x| render::luminance(*x) <= 0.0).collect();
+            let scale = render::visible_scale(&hits, &rel, &dark, 1e-6);
             files.push((
                 out.join(format!("{}.csv", a.name())),
                 Output::Csv(sa.b.clone()),
@@ -204,11 +205,11 @@ pub fn run(
             ));
             files.push((
                 out.join("compare.png"),
-                Output::Png(render::side_by_side(&pa, &pb)),
+                Output::Png(render::side_by_side(&pa, a.name(), &pb, b.name())),
             ));
             files.push((
                 out.join("diff.png"),
-                Output::Png(render::difference_picture(&hits, &rel, scale)),
+                Output::Png(render::difference_picture(&hits, &rel, &dark, scale)),
             ));
             files.push((out.join(format!("{}.png", a.name())), Output::Png(pa)));
             files.push((out.join(format!("{}.png", b.name())), Output::Png(pb)));

@@ -338,17 +338,31 @@ pub fn nice_scale(x: f64) -> f64 {
     10f64.powf(e + 1.0)
 }
 
+/// The scale of a difference picture: the nice value (1, 2, 5 × 10^k) at or above the
+/// largest |relative difference| of the patches the picture shows (`dark` patches, with no
+/// light in A, have none); at least `floor`.
+pub fn visible_scale(hits: &HitBuffer, rel: &[f64], dark: &[bool], floor: f64) -> f64 {
+    let m = hits
+        .hits
+        .iter()
+        .flatten()
+        .filter(|(id, _)| !dark[*id as usize])
+        .fold(0.0f64, |m, (id, _)| m.max(rel[*id as usize].abs()));
+    nice_scale(m.max(floor))
+}
+
 /// The false-colour picture of the signed relative difference (Y_b − Y_a) / Y_a of each
 /// patch's luminance, on ±`scale`, with a scale bar and its labels (as fractions: 0.01 is
-/// 1 %) below. Pixels
-/// that see no patch are grey.
-pub fn difference_picture(hits: &HitBuffer, rel: &[f64], scale: f64) -> Picture {
+/// 1 %) below. Pixels that see no patch (the rays leave the scene) are black; patches
+/// with no light in A (`dark`: no relative difference to show) are grey.
+pub fn difference_picture(hits: &HitBuffer, rel: &[f64], dark: &[bool], scale: f64) -> Picture {
     let bar_h = 40;
     let (w, h) = (hits.width, hits.height);
     let mut img = Picture::from_pixel(w, h + bar_h, image::Rgb([255, 255, 255]));
     for (k, hit) in hits.hits.iter().enumerate() {
         let px = match hit {
-            None => [128, 128, 128],
+            None => [0, 0, 0],
+            Some((id, _)) if dark[*id as usize] => [128, 128, 128],
             Some((id, _)) => diverging(rel[*id as usize] / scale),
         };
         img.put_pixel(k as u32 % w, k as u32 / w, image::Rgb(px));
@@ -372,7 +386,8 @@ pub fn difference_picture(hits: &HitBuffer, rel: &[f64], scale: f64) -> Picture 
     img
 }
 
-/// 3 × 5 glyphs of the characters the scale bar needs (rows top down, 3 bits each).
+/// 3 × 5 glyphs of the characters the scale bar and the labels need (rows top down, 3
+/// bits each): digits, signs and the letters of the model names.
 fn glyph(c: char) -> [u8; 5] {
     match c {
         '0' => [7, 5, 5, 5, 7],
@@ -388,6 +403,21 @@ fn glyph(c: char) -> [u8; 5] {
         '.' => [0, 0, 0, 0, 2],
         '-' => [0, 0, 7, 0, 0],
         '+' => [0, 2, 7, 2, 0],
+        'a' => [0, 7, 1, 7, 7],
+        'c' => [0, 7, 4, 4, 7],
+        'd' => [1, 7, 5, 5, 7],
+        'e' => [0, 7, 7, 4, 7],
+        'f' => [3, 4, 7, 4, 4],
+        'h' => [4, 7, 5, 5, 5],
+        'i' => [2, 0, 2, 2, 2],
+        'l' => [6, 2, 2, 2, 7],
+        'm' => [0, 7, 7, 5, 5],
+        'n' => [0, 7, 5, 5, 5],
+        'o' => [0, 7, 5, 5, 7],
+        's' => [0, 7, 6, 3, 7],
+        't' => [2, 7, 2, 2, 3],
+        'v' => [0, 5, 5, 5, 2],
+        'x' => [0, 5, 2, 2, 5],
         _ => [0; 5],
     }
 }
@@ -414,16 +444,19 @@ fn draw_text(img: &mut Picture, x: u32, y: u32, text: &str, s: u32) {
     }
 }
 
-/// Two pictures of the same size side by side with an 8-pixel white gap.
-pub fn side_by_side(a: &Picture, b: &Picture) -> Picture {
-    let gap = 8;
+/// Two pictures of the same size side by side with an 8-pixel white gap, each under a
+/// white strip naming it (`label_a`, `label_b`: lower-case model names).
+pub fn side_by_side(a: &Picture, label_a: &str, b: &Picture, label_b: &str) -> Picture {
+    let (gap, strip) = (8, 16);
     let mut img = Picture::from_pixel(
         a.width() + gap + b.width(),
-        a.height().max(b.height()),
+        strip + a.height().max(b.height()),
         image::Rgb([255, 255, 255]),
     );
-    image::imageops::replace(&mut img, a, 0, 0);
-    image::imageops::replace(&mut img, b, (a.width() + gap) as i64, 0);
+    image::imageops::replace(&mut img, a, 0, strip as i64);
+    image::imageops::replace(&mut img, b, (a.width() + gap) as i64, strip as i64);
+    draw_text(&mut img, 4, 3, label_a, 2);
+    draw_text(&mut img, a.width() + gap + 4, 3, label_b, 2);
     img
 }
 
