@@ -65,7 +65,9 @@ fn half_the_machine() -> Option<u64> {
 /// The address-space limit (`ulimit -v`, RLIMIT_AS) from /proc/self/limits, if one is set.
 fn address_space_limit() -> Option<u64> {
     let limits = std::fs::read_to_string("/proc/self/limits").ok()?;
-    let line = limits.lines().find(|l| l.starts_with("Max address space"))?;
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
     // "Max address space   <soft>   <hard>   bytes": the soft limit binds.
     line.split_whitespace().nth(3)?.parse().ok()
 }
@@ -106,10 +108,19 @@ pub fn max_memory() -> Result<u64> {
 /// [`max_memory`] and what would raise it.
 fn memory_limit() -> Result<(u64, &'static str)> {
     let default = half_the_machine().map_or(DEFAULT_MAX_MEMORY, |h| h.min(DEFAULT_MAX_MEMORY));
-    let mut best = (limit(MAX_MEMORY_VAR, default)?, "$SHELLSIM_MAX_MEMORY raises it");
+    let mut best = (
+        limit(MAX_MEMORY_VAR, default)?,
+        "$SHELLSIM_MAX_MEMORY raises it",
+    );
     for (l, what) in [
-        (address_space_limit(), "the process's address-space limit, ulimit -v, binds"),
-        (cgroup_limit(), "the cgroup's memory limit (a Slurm job's or a container's) binds"),
+        (
+            address_space_limit(),
+            "the process's address-space limit, ulimit -v, binds",
+        ),
+        (
+            cgroup_limit(),
+            "the cgroup's memory limit (a Slurm job's or a container's) binds",
+        ),
     ] {
         if let Some(l) = l.filter(|&l| l < best.0) {
             best = (l, what);

@@ -482,7 +482,8 @@ mod bad_input {
         camera_nan => &["radiosity", "--scene", "scenes/cornell.json", "--camera", "0,0,NaN,1,1,1,0,0,1,60"], &["--camera", "NaN is not finite"];
         camera_up_parallel => &["radiosity", "--scene", "scenes/cornell.json", "--camera", "0.5,0.9,0.5,0.5,0.1,0.5,0,1,0,60"], &["--camera", "parallel"];
         compare_unknown_model => &["radiosity", "--scene", "scenes/cornell.json", "--compare", "float,gpu"], &["--compare", "float, fixed, machine"];
-        sources_out_of_range => &["matrix", "--scene", "scenes/cornell.json", "--model", "float", "--sources", "5..99"], &["--sources", "5..99"];
+        sources_out_of_range => &["matrix", "--scene", "scenes/cornell.json", "--model", "float", "--sources", "5..99"], &["--sources", "5..99 (TO excluded)", "patches 0..=17"];
+        sources_inclusive_form => &["matrix", "--scene", "scenes/cornell.json", "--model", "float", "--sources", "5..=9"], &["--sources", "TO is excluded"];
         tol_nan => &["radiosity", "--scene", "scenes/cornell.json", "--tol", "NaN"], &["--tol", "NaN"];
     }
 }
@@ -682,7 +683,13 @@ fn the_address_space_limit_binds_the_memory_estimate() {
     let o = Command::new("bash")
         .args(["-c", "ulimit -v 2000000 && exec \"$0\" \"$@\""])
         .arg(env!("CARGO_BIN_EXE_shellsim"))
-        .args(["matrix", "--scene", scene.to_str().unwrap(), "--model", "float"])
+        .args([
+            "matrix",
+            "--scene",
+            scene.to_str().unwrap(),
+            "--model",
+            "float",
+        ])
         .args(["--rays", "20000000", "--sources", "0..1", "--out"])
         .arg(&out)
         .env_remove("SHELLSIM_MAX_MEMORY")

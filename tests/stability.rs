@@ -44,7 +44,7 @@ fn counts(r: &CaseReport, m: Model) -> &Counts {
 fn holds_on(case: &str) {
     let r = run(case);
     let repro = format!(
-        "reproduce: shellsim stability --cases {case} --rays {RAYS} --frac-bits 12..12 --out DIR"
+        "reproduce: shellsim stability --cases {case} --rays {RAYS} --frac-bits 12..=12 --out DIR"
     );
     let f = counts(&r, Model::Float);
     assert_eq!(f.rays, RAYS as u64, "{repro}");

@@ -256,7 +256,7 @@ pub fn parse_range(s: &str) -> std::result::Result<(u32, u32), String> {
 
 /// Parses `A..B` (fractional bits).
 pub fn parse_bits_range(s: &str) -> std::result::Result<(u32, u32), String> {
-    parse_pair(s, "A..B", "a number of bits")
+    parse_pair(s, "A..=B", "a number of bits")
 }
 
 /// Parses two numbers joined by `..`; `form` and `what` name them in the error.
@@ -264,6 +264,12 @@ fn parse_pair(s: &str, form: &str, what: &str) -> std::result::Result<(u32, u32)
     let (a, b) = s
         .split_once("..")
         .ok_or_else(|| format!("{s:?} is not {form}"))?;
+    // An inclusive range may say so (`A..=B`); `FROM..TO` ranges of ids have no `=` form.
+    let b = match b.strip_prefix('=') {
+        Some(b) if form.contains("..=") => b,
+        Some(_) => return Err(format!("{s:?} is not {form} (TO is excluded: no `=`)")),
+        None => b,
+    };
     let p = |x: &str| {
         x.trim()
             .parse::<u32>()

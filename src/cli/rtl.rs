@@ -35,8 +35,8 @@ pub enum RtlCmd {
 pub struct CostArgs {
     #[command(flatten)]
     pub datapath: DatapathArgs,
-    /// Synthesize every fractional width A..B (both included) instead of the configuration's.
-    #[arg(long, value_name = "A..B", value_parser = super::args::parse_bits_range)]
+    /// Synthesize every fractional width A..=B instead of the configuration's.
+    #[arg(long, value_name = "A..=B", value_parser = super::args::parse_bits_range)]
     pub sweep: Option<(u32, u32)>,
     /// Skip the ECP5 mapping (LUTs and multipliers): generic synthesis only.
     #[arg(long)]

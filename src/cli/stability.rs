@@ -9,9 +9,9 @@ use std::path::PathBuf;
 /// Arguments of `shellsim stability`.
 #[derive(clap::Args, Debug)]
 pub struct StabilityArgs {
-    /// Fractional bits of the fixed-point model, A..B (both included; the configuration's
+    /// Fractional bits of the fixed-point model, A..=B (the configuration's
     /// own width is always run too).
-    #[arg(long, value_name = "A..B", default_value = "8..16", value_parser = parse_bits_range)]
+    #[arg(long, value_name = "A..=B", default_value = "8..=16", value_parser = parse_bits_range)]
     pub frac_bits: (u32, u32),
     /// The cases, comma-separated (default: all; an unknown name's error lists them).
     #[arg(long, value_name = "NAMES", value_delimiter = ',')]
@@ -33,7 +33,7 @@ impl StabilityArgs {
     /// The command line that regenerates a report (for its header).
     fn command(&self) -> String {
         let mut c = format!(
-            "shellsim stability --frac-bits {}..{} --rays {} --seed {}",
+            "shellsim stability --frac-bits {}..={} --rays {} --seed {}",
             self.frac_bits.0, self.frac_bits.1, self.rays, self.seed
         );
         if !self.cases.is_empty() {
@@ -110,7 +110,7 @@ pub fn run(a: &StabilityArgs) -> Result<()> {
     }
     report::write(&a.out, &r, &a.command())?;
     crate::output::outln!(
-        "wrote {}/stability.csv, .md and .svg (F = {}..{}, default {})",
+        "wrote {}/stability.csv, .md and .svg (F = {}..={}, default {})",
         a.out.display(),
         r.bits[0],
         r.bits.last().unwrap(),

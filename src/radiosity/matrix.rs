@@ -294,8 +294,10 @@ pub fn validate(spec: &MatrixSpec, scene: &Scene, file: &Path) -> Result<()> {
         return Err(Error::param(
             "sources",
             format!(
-                "{}..{} is not a nonempty range within the scene's patches 0..{n}",
-                spec.sources.start, spec.sources.end
+                "{}..{} (TO excluded) is not a nonempty range of the scene's patches 0..={}",
+                spec.sources.start,
+                spec.sources.end,
+                n.saturating_sub(1)
             ),
         ));
     }

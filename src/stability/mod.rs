@@ -721,7 +721,7 @@ pub fn validate(opts: &Options) -> Result<()> {
     if opts.bits.is_empty() {
         return Err(Error::param(
             "frac_bits",
-            format!("{}..{} is empty", opts.bits.start(), opts.bits.end()),
+            format!("{}..={} is empty", opts.bits.start(), opts.bits.end()),
         ));
     }
     for b in widths(opts) {
