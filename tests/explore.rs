@@ -730,3 +730,24 @@ fn a_spec_named_as_an_output_is_refused() {
     assert_eq!(std::fs::read_to_string(&spec).unwrap(), text);
     assert!(!dir.join("submit.sh").exists());
 }
+
+/// A reference whose rays cannot fit the memory limit is refused (exit 2, naming the
+/// spec and `reference_rays`) before a ray is cast, not aborted by a failed allocation.
+#[test]
+fn a_reference_too_big_for_the_memory_limit_is_refused() {
+    let spec = spec_file(&format!(
+        "reference_rays = 100000000\nscene = {:?}\nlevel = \"float\"\n",
+        common::scene_path("scene1.json").display().to_string()
+    ));
+    let out = keep().join("big");
+    let o = Command::new(env!("CARGO_BIN_EXE_shellsim"))
+        .args(["explore", "run", "--space", spec.to_str().unwrap(), "--out"])
+        .arg(&out)
+        .env("SHELLSIM_MAX_MEMORY", "2G")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("reference_rays: 100000000"), "{err}");
+    assert!(err.contains("more than the limit of 2.1 GB"), "{err}");
+}

@@ -280,7 +280,6 @@ fn reference(spec: &Spec, scene: usize, source: u32, rays: usize, dir: &Path) ->
         }
     }
     let cfg = crate::config::built_in();
-    let sh = Shared::new(&sc.scene, &sc.path, cfg, Model::Float)?;
     let ms = crate::radiosity::matrix::MatrixSpec {
         model: Model::Float,
         rays,
@@ -288,6 +287,14 @@ fn reference(spec: &Spec, scene: usize, source: u32, rays: usize, dir: &Path) ->
         seed: size::REFERENCE_SEED,
         sources: source..source + 1,
     };
+    // Refused before the tracer is built or a ray is cast when it cannot fit.
+    crate::radiosity::matrix::check_memory(&ms, sc.scene.patches.len(), 1).map_err(
+        |e| match e {
+            Error::Param { what, .. } => Error::input(&spec.file, "reference_rays", what),
+            e => e,
+        },
+    )?;
+    let sh = Shared::new(&sc.scene, &sc.path, cfg, Model::Float)?;
     let ff = run_row(&sh, &ms, source)?
         .row(&sc.scene, source)
         .dense(sc.scene.patches.len());
