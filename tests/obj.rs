@@ -497,3 +497,37 @@ fn names_that_follow_their_faces_are_warned_about() {
     assert!(out.contains("groups       shortBox 1-2"), "{out}");
     assert!(out.contains("materials    white 0-1; red 2"), "{out}");
 }
+
+/// A planar convex face of many vertices (a 20,000-gon) is split into well-shaped
+/// triangles, not a fan whose slivers all meet at one vertex and crowd its grid cells: no
+/// vertex is shared by more than about 2·log₂ n triangles, and the triangles tile the face.
+#[test]
+fn a_face_of_many_vertices_is_split_without_a_fan() {
+    let n = 20_000;
+    let dir = tempfile::tempdir().unwrap();
+    let f = dir.path().join("disc.obj");
+    let mut text = String::new();
+    for i in 0..n {
+        let a = std::f64::consts::TAU * i as f64 / n as f64;
+        text.push_str(&format!("v {:.12} {:.12} 0\n", a.cos(), a.sin()));
+    }
+    text.push('f');
+    for i in 1..=n {
+        text.push_str(&format!(" {i}"));
+    }
+    text.push('\n');
+    std::fs::write(&f, text).unwrap();
+    let (s, r) = obj::import(&f, &obj::ImportOptions::default()).unwrap();
+    assert_eq!((r.split_faces, s.patches.len()), (1, n - 2));
+    let mut degree = std::collections::HashMap::<[u64; 3], usize>::new();
+    for p in &s.patches {
+        for v in &p.vertices {
+            *degree.entry(v.to_array().map(f64::to_bits)).or_default() += 1;
+        }
+    }
+    let most = degree.values().copied().max().unwrap();
+    assert!(most <= 2 * 15 + 2, "a vertex shared by {most} triangles");
+    let area: f64 = s.patches.iter().map(|p| p.area()).sum();
+    let want = 0.5 * n as f64 * (std::f64::consts::TAU / n as f64).sin();
+    assert!((area - want).abs() < 1e-6, "{area} vs {want}");
+}

@@ -204,7 +204,10 @@ fn info(file: &Path, grid: CellArg, edit: &SceneEditArgs) -> Result<()> {
         g.dims[0],
         g.dims[1],
         g.dims[2],
-        g.cell_size,
+        // Six decimals, trailing zeros dropped: 0.05, 0.045455, 27.75.
+        format!("{:.6}", g.cell_size)
+            .trim_end_matches('0')
+            .trim_end_matches('.'),
         g.nonempty_cells(),
         g.entries(),
         g.entries() as f64 / scene.patches.len() as f64

@@ -559,6 +559,20 @@ pub fn import_bytes(
                     patches.push(patch(vertices));
                     continue;
                 }
+                None if arity > polygon::BALANCED_FROM => {
+                    report.split_faces += 1;
+                    report.split_triangles += arity - 2;
+                    let tris = polygon::balanced(arity);
+                    let n = tris.len();
+                    for (j, [a, b, c]) in tris.into_iter().enumerate() {
+                        origins.push(Origin {
+                            fan: Some((j + 1, n)),
+                            ..origin
+                        });
+                        patches.push(patch(vec![vertices[a], vertices[b], vertices[c]]));
+                    }
+                    continue;
+                }
                 None => {
                     report.split_faces += 1;
                     report.split_triangles += arity - 2;

@@ -189,6 +189,37 @@ impl Fan {
     }
 }
 
+/// Faces of more vertices than this, planar and convex, are split by [`balanced`] rather
+/// than into a fan: a fan's slivers all meet at one vertex, so the grid cells around it hold
+/// thousands of them.
+pub const BALANCED_FROM: usize = 64;
+
+/// The triangles of a planar convex face of `n` vertices by recursive halving: the
+/// triangle (0, n/3, 2n/3), then each remaining arc (a, b) of the outline cut at its middle
+/// vertex m into the triangle (a, m, b) and the arcs (a, m) and (m, b). Every cut is a
+/// diagonal of the convex face, so the triangles tile it without overlap and keep its
+/// winding; they are well shaped (a circle's are nearly equilateral near the middle and
+/// small along the rim).
+pub fn balanced(n: usize) -> Vec<[usize; 3]> {
+    let mut out = Vec::with_capacity(n.saturating_sub(2));
+    if n < 3 {
+        return out;
+    }
+    let (p, q) = (n / 3, 2 * n / 3);
+    out.push([0, p, q]);
+    let mut arcs = vec![(0, p), (p, q), (q, n)];
+    while let Some((a, b)) = arcs.pop() {
+        if b - a < 2 {
+            continue;
+        }
+        let m = (a + b) / 2;
+        out.push([a, m, b % n]);
+        arcs.push((m, b));
+        arcs.push((a, m));
+    }
+    out
+}
+
 /// Splits a face of 3 or more vertices if it must be: `Ok(None)` when it passes [`check`]
 /// as it is; `Ok(Some(fan))` when it is not planar or not convex but a fan of triangles
 /// mends it; `Err` (what is wrong) for bad points, coincident vertices, zero area, a face of
@@ -252,6 +283,35 @@ fn fan_fold(v: &[DVec3], fan: &Fan, normal: DVec3) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_balanced_split_tiles_a_convex_face() {
+        for n in [3, 4, 5, 64, 65, 1000, 20_000] {
+            let t = balanced(n);
+            assert_eq!(t.len(), n - 2, "n = {n}");
+            // Each triangle keeps the outline's order (a < b < c, the last may wrap to 0),
+            // and the areas add up to the polygon's: a tiling of a regular n-gon.
+            let v: Vec<DVec3> = (0..n)
+                .map(|i| {
+                    let a = std::f64::consts::TAU * i as f64 / n as f64;
+                    DVec3::new(a.cos(), a.sin(), 0.0)
+                })
+                .collect();
+            let area: f64 = t
+                .iter()
+                .map(|&[a, b, c]| {
+                    let z = (v[b] - v[a]).cross(v[c] - v[a]).z;
+                    assert!(z > 0.0, "n = {n}: triangle {a} {b} {c} turned over");
+                    0.5 * z
+                })
+                .sum();
+            let want = 0.5 * n as f64 * (std::f64::consts::TAU / n as f64).sin();
+            assert!(
+                (area - want).abs() < 1e-9 * want,
+                "n = {n}: {area} vs {want}"
+            );
+        }
+    }
 
     #[test]
     fn a_200000_gon_is_checked_in_linear_work() {
