@@ -701,3 +701,39 @@ fn the_address_space_limit_binds_the_memory_estimate() {
     assert!(err.contains("ulimit -v"), "{err}");
     assert!(!out.exists());
 }
+
+/// `matrix --model machine --sample K`: the form factors are every row's, byte for byte
+/// those of the full machine matrix (the untimed model's, which the machine equals), and
+/// the full run's total cycles lie inside the sampled estimate's 95 % interval; a sample
+/// the design cannot take is refused.
+#[test]
+fn a_sampled_machine_matrix_brackets_the_full_run() {
+    use shellsim::radiosity::matrix::{compute, Model};
+    use shellsim::radiosity::sample::compute_sampled;
+    let scene = shellsim::scene::gen::corpus::subdivided_box(4, glam::DVec3::ONE, false);
+    let cfg = *shellsim::config::built_in();
+    let n = scene.patches.len() as u32;
+    let spec = shellsim::radiosity::matrix::MatrixSpec {
+        model: Model::Machine,
+        rays: 969,
+        directions: shellsim::reference::rays::Directions::Rings,
+        seed: 1,
+        sources: 0..n,
+    };
+    let path = Path::new("box-4");
+    let full = compute(&scene, path, &cfg, &spec, false).unwrap();
+    let truth: u64 = full.machine.iter().map(|m| m.cycles).sum();
+    let (m, t) = compute_sampled(&scene, path, &cfg, &spec, 24).unwrap();
+    assert_eq!(m.matrix_market(), full.matrix_market());
+    assert_eq!((t.sampled, t.strata, t.mismatches_vs_fixed), (24, 12, 0));
+    assert!(
+        (t.cycles_estimate - truth as f64).abs() <= t.cycles_ci95,
+        "{} ± {} against {truth}",
+        t.cycles_estimate,
+        t.cycles_ci95
+    );
+    for k in [3, 2, 2 * n as usize] {
+        let e = compute_sampled(&scene, path, &cfg, &spec, k).unwrap_err();
+        assert!(e.to_string().contains("want an even number"), "{e}");
+    }
+}

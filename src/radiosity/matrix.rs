@@ -363,7 +363,12 @@ fn row_of(
 }
 
 /// The fixed-point ray records of `set` (a ray that does not fit the formats is bad input).
-fn records(sh: &Shared, host: &HostFixed, set: &RaySet, source: u32) -> Result<Vec<RayRecord>> {
+pub(crate) fn records(
+    sh: &Shared,
+    host: &HostFixed,
+    set: &RaySet,
+    source: u32,
+) -> Result<Vec<RayRecord>> {
     set.rays
         .iter()
         .enumerate()
@@ -455,7 +460,7 @@ pub fn run_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<RowRun> {
 /// model or the machine lost a ray of `run` that the float reference traces to a patch in
 /// a closed scene — a leak, which the origin placement (`crate::fixed::origin`) rules out.
 /// Only the rays that escaped are traced again.
-fn leak_check(sh: &Shared, spec: &MatrixSpec, i: u32, run: &RowRun) -> Result<()> {
+pub(crate) fn leak_check(sh: &Shared, spec: &MatrixSpec, i: u32, run: &RowRun) -> Result<()> {
     let escaped = run.hits.iter().filter(|h| h.is_none()).count();
     for (k, _) in run.hits.iter().enumerate().filter(|(_, h)| h.is_none()) {
         let ray = &run.set.rays[k];
@@ -641,6 +646,10 @@ pub struct Summary {
     pub config: Option<MachineConfig>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub machine: Option<MachineTotals>,
+    /// The machine's time estimated from a sample of rows (`--sample`); the rows are the
+    /// untimed model's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sampled: Option<crate::radiosity::sample::SampledTiming>,
     pub rows: Vec<RowSummary>,
 }
 
@@ -660,7 +669,7 @@ impl Summary {
                 machine: m.machine.get(k).copied(),
             })
             .collect();
-        let machine = (spec.model == Model::Machine).then(|| {
+        let machine = (spec.model == Model::Machine && !m.machine.is_empty()).then(|| {
             let cycles: u64 = m.machine.iter().map(|x| x.cycles).sum();
             let busy: f64 = m
                 .machine
@@ -696,6 +705,7 @@ impl Summary {
             max_escaped_weight: rows.iter().fold(0.0f64, |a, r| a.max(r.escaped_weight)),
             config: (spec.model != Model::Float).then_some(*cfg),
             machine,
+            sampled: None,
             rows,
         }
     }
@@ -711,6 +721,12 @@ impl Summary {
         if !bad.is_empty() {
             return Err(Error::Check(format!(
                 "the machine differs from the fixed-point model in rows {bad:?}"
+            )));
+        }
+        if let Some(t) = self.sampled.as_ref().filter(|t| t.mismatches_vs_fixed > 0) {
+            return Err(Error::Check(format!(
+                "the machine differs from the fixed-point model on {} rays of the sampled rows",
+                t.mismatches_vs_fixed
             )));
         }
         Ok(())

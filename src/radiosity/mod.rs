@@ -11,4 +11,5 @@ pub mod compare;
 pub mod job;
 pub mod matrix;
 pub mod render;
+pub mod sample;
 pub mod solve;
