@@ -723,7 +723,7 @@ fn a_sampled_machine_matrix_brackets_the_full_run() {
     let path = Path::new("box-4");
     let full = compute(&scene, path, &cfg, &spec, false).unwrap();
     let truth: u64 = full.machine.iter().map(|m| m.cycles).sum();
-    let (m, t) = compute_sampled(&scene, path, &cfg, &spec, 24).unwrap();
+    let (m, t) = compute_sampled(&scene, path, &cfg, &spec, 24, 1).unwrap();
     assert_eq!(m.matrix_market(), full.matrix_market());
     assert_eq!((t.sampled, t.strata, t.mismatches_vs_fixed), (24, 12, 0));
     assert!(
@@ -733,7 +733,7 @@ fn a_sampled_machine_matrix_brackets_the_full_run() {
         t.cycles_ci95
     );
     for k in [3, 2, 2 * n as usize] {
-        let e = compute_sampled(&scene, path, &cfg, &spec, k).unwrap_err();
+        let e = compute_sampled(&scene, path, &cfg, &spec, k, 1).unwrap_err();
         assert!(e.to_string().contains("want an even number"), "{e}");
     }
 }

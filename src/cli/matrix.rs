@@ -27,6 +27,9 @@ pub struct MatrixArgs {
     /// machine equals ray for ray.
     #[arg(long, value_name = "K")]
     pub sample: Option<usize>,
+    /// Seed of the sample's draw (the rays keep --seed).
+    #[arg(long, default_value_t = 1, requires = "sample")]
+    pub sample_seed: u64,
     /// The matrix (Matrix Market, .mtx); its summary goes beside it as .json.
     #[arg(long)]
     pub out: PathBuf,
@@ -53,8 +56,14 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
     let start = std::time::Instant::now();
     let (m, sampled) = match a.sample {
         Some(k) => {
-            let (m, t) =
-                crate::radiosity::sample::compute_sampled(&scene, &a.scene.scene, &cfg, &spec, k)?;
+            let (m, t) = crate::radiosity::sample::compute_sampled(
+                &scene,
+                &a.scene.scene,
+                &cfg,
+                &spec,
+                k,
+                a.sample_seed,
+            )?;
             (m, Some(t))
         }
         None => (

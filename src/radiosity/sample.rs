@@ -67,14 +67,15 @@ fn fixed_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(RowRun, u64)> {
 }
 
 /// Every row of `spec.sources` from the untimed model, the machine's cycles estimated from
-/// `k` sampled rows (k even, at least 4, at most the rows). `spec.model` must be the
-/// machine.
+/// `k` sampled rows (k even, at least 4, at most the rows) drawn with `sample_seed` (the
+/// rays keep `spec.seed`). `spec.model` must be the machine.
 pub fn compute_sampled(
     scene: &Scene,
     file: &Path,
     cfg: &MachineConfig,
     spec: &MatrixSpec,
     k: usize,
+    sample_seed: u64,
 ) -> Result<(FormMatrix, SampledTiming)> {
     validate(spec, scene, file)?;
     let rows_n = spec.sources.len();
@@ -105,7 +106,7 @@ pub fn compute_sampled(
     let mut order: Vec<usize> = (0..rows_n).collect();
     order.sort_by_key(|&r| (work[r], r));
     let strata = k / 2;
-    let mut rng = rand_pcg::Pcg64::seed_from_u64(spec.seed ^ 0x5a3e_1ed0);
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(sample_seed);
     let mut picks: Vec<(usize, Vec<usize>)> = Vec::with_capacity(strata); // (N_h, rows)
     for h in 0..strata {
         let (lo, hi) = (h * rows_n / strata, (h + 1) * rows_n / strata);
