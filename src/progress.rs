@@ -19,29 +19,30 @@ impl Progress {
 
     /// A bar for `len` units of work called `what`.
     pub fn new(len: u64, what: &str) -> Self {
-        let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::hidden());
-        bar.set_style(
+        Self::hidden(
+            Some(len),
+            what,
             ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} ({eta} left)")
                 .expect("a valid template")
                 .progress_chars("=> "),
-        );
-        bar.set_message(what.to_string());
-        Progress {
-            bar,
-            start: Instant::now(),
-            shown: false,
-            terminal: std::io::stderr().is_terminal() && std::env::var_os("CI").is_none(),
-        }
+        )
     }
 
     /// A counter of work whose total is not known (simulated cycles): the count and the
     /// rate, shown as [`Progress::new`]'s bar is.
     pub fn counter(what: &str) -> Self {
-        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
-        bar.set_style(
+        Self::hidden(
+            None,
+            what,
             ProgressStyle::with_template("{msg:>10} {human_pos} ({per_sec}) {elapsed}")
                 .expect("a valid template"),
-        );
+        )
+    }
+
+    /// A bar drawn nowhere until [`Progress::inc`] finds the job long enough.
+    fn hidden(len: Option<u64>, what: &str, style: ProgressStyle) -> Self {
+        let bar = ProgressBar::with_draw_target(len, ProgressDrawTarget::hidden());
+        bar.set_style(style);
         bar.set_message(what.to_string());
         Progress {
             bar,

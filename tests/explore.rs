@@ -455,13 +455,9 @@ fn scene_dependent_values_are_checked_before_any_point() {
     }
 }
 
-#[test]
-fn slurm_out_naming_a_file_is_refused_up_front() {
-    // Before: exit 1 after loading the spec, from create_dir_all.
-    let (spec, _) = whole();
-    let file = keep().join("a-file");
-    std::fs::write(&file, "keep me").unwrap();
-    let o = shellsim(
+/// `explore slurm --space spec --tasks 2 --out out`.
+fn slurm_into(spec: &Path, out: &Path) -> Output {
+    shellsim(
         &[
             "explore",
             "slurm",
@@ -470,10 +466,19 @@ fn slurm_out_naming_a_file_is_refused_up_front() {
             "--tasks",
             "2",
             "--out",
-            file.to_str().unwrap(),
+            out.to_str().unwrap(),
         ],
         None,
-    );
+    )
+}
+
+#[test]
+fn slurm_out_naming_a_file_is_refused_up_front() {
+    // Before: exit 1 after loading the spec, from create_dir_all.
+    let (spec, _) = whole();
+    let file = keep().join("a-file");
+    std::fs::write(&file, "keep me").unwrap();
+    let o = slurm_into(spec, &file);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
@@ -708,19 +713,7 @@ fn a_spec_named_as_an_output_is_refused() {
     let spec = dir.join("explore.sbatch");
     let text = tiny_spec("");
     std::fs::write(&spec, &text).unwrap();
-    let o = shellsim(
-        &[
-            "explore",
-            "slurm",
-            "--space",
-            spec.to_str().unwrap(),
-            "--tasks",
-            "2",
-            "--out",
-            dir.to_str().unwrap(),
-        ],
-        None,
-    );
+    let o = slurm_into(&spec, &dir);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(

@@ -608,6 +608,25 @@ fn compare_fails_beyond_the_noise_naming_the_patches() {
     );
 }
 
+/// `c` (shellsim, or a wrapper that runs it) asked for one float row of 2×10⁷ rays of
+/// `scene` into `out`.
+fn twenty_million_rays(mut c: Command, scene: &Path, out: &Path) -> std::process::Output {
+    c.args(["matrix", "--scene"])
+        .arg(scene)
+        .args([
+            "--model",
+            "float",
+            "--rays",
+            "20000000",
+            "--sources",
+            "0..1",
+            "--out",
+        ])
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 /// A matrix whose rays cannot fit the memory limit is refused before anything is
 /// allocated (exit 2, naming `--rays`, the estimate and the limit), and nothing is written;
 /// one that fits announces its plan and the size of the `.mtx` before writing it.
@@ -616,19 +635,9 @@ fn matrix_memory_is_estimated_and_announced() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.mtx");
     let scene = common::scene_path("scene2.json");
-    let o = Command::new(env!("CARGO_BIN_EXE_shellsim"))
-        .args([
-            "matrix",
-            "--scene",
-            scene.to_str().unwrap(),
-            "--model",
-            "float",
-        ])
-        .args(["--rays", "20000000", "--sources", "0..1", "--out"])
-        .arg(&out)
-        .env("SHELLSIM_MAX_MEMORY", "1G")
-        .output()
-        .unwrap();
+    let mut c = Command::new(env!("CARGO_BIN_EXE_shellsim"));
+    c.env("SHELLSIM_MAX_MEMORY", "1G");
+    let o = twenty_million_rays(c, &scene, &out);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("--rays 20000000"), "{err}");
@@ -680,21 +689,11 @@ fn the_address_space_limit_binds_the_memory_estimate() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.mtx");
     let scene = common::scene_path("scene2.json");
-    let o = Command::new("bash")
-        .args(["-c", "ulimit -v 2000000 && exec \"$0\" \"$@\""])
+    let mut c = Command::new("bash");
+    c.args(["-c", "ulimit -v 2000000 && exec \"$0\" \"$@\""])
         .arg(env!("CARGO_BIN_EXE_shellsim"))
-        .args([
-            "matrix",
-            "--scene",
-            scene.to_str().unwrap(),
-            "--model",
-            "float",
-        ])
-        .args(["--rays", "20000000", "--sources", "0..1", "--out"])
-        .arg(&out)
-        .env_remove("SHELLSIM_MAX_MEMORY")
-        .output()
-        .unwrap();
+        .env_remove("SHELLSIM_MAX_MEMORY");
+    let o = twenty_million_rays(c, &scene, &out);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("more than the limit of 2.0 GB"), "{err}");

@@ -274,7 +274,11 @@ impl<'a> Machine<'a> {
         mut probe: Option<&mut dyn Probe>,
         mut report: Option<&mut dyn FnMut(u64)>,
     ) -> Result<(), Deadlock> {
-        let mut next_report = self.cycle + REPORT_CYCLES;
+        // Without a report the comparison below is never true.
+        let mut next_report = match report {
+            Some(_) => self.cycle + REPORT_CYCLES,
+            None => u64::MAX,
+        };
         loop {
             self.tick(order);
             if self.cycle >= next_report {
