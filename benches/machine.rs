@@ -77,12 +77,12 @@ fn bench(c: &mut Criterion) {
             b.iter_batched(
                 fresh,
                 |()| {
-                    let opts = shellsim::machine::vcd::VcdOptions {
-                        window: shellsim::machine::vcd::Window::ALL,
+                    let opts = shellsim::wave::WaveOptions {
+                        window: shellsim::wave::Window::ALL,
                         scope: None,
                         ..Default::default()
                     };
-                    let mut w = shellsim::machine::vcd::VcdWriter::create(&path, opts).unwrap();
+                    let mut w = shellsim::wave::WaveWriter::create(&path, opts).unwrap();
                     let mut m = shellsim_hw::machine::Machine::new(
                         hw,
                         &prep.host.scene,

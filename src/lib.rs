@@ -5,7 +5,7 @@
 //!
 //! Dependencies point one way (see ARCHITECTURE.md): `cli` → everything, nothing imports
 //! `cli`; `explore` → `size`, `experiment`, `radiosity` and below; `experiment` → `machine`, `partition`, `chart`; `machine` → `fixed`, `partition`,
-//! `reference`; `radiosity` and `stability` → `machine`, `fixed`, `partition`, `reference`; `fixed`,
+//! `reference`, `wave`; `radiosity` and `stability` → `machine`, `fixed`, `partition`, `reference`; `fixed`,
 //! `partition` → `reference` → `scene`. `error`, `output`, `limits`, `config`,
 //! `paper`, `progress` and `chart` are leaves anyone may use.
 
@@ -28,6 +28,7 @@ pub mod rtl;
 pub mod scene;
 pub mod size;
 pub mod stability;
+pub mod wave;
 
 pub use error::{Error, Result};
 pub use scene::{Aabb, Patch, Scene, Spectrum};

@@ -1,6 +1,6 @@
 //! The dependency rule of ARCHITECTURE.md, checked on the source text: src/'s top-level
 //! modules depend one way (no circle), nothing imports `cli`, every edge goes down the
-//! layering cli → explore, rtl → experiment, size, radiosity, stability → machine → fixed, partition → reference → scene (the leaves
+//! layering cli → explore, rtl → experiment, size, radiosity, stability → machine → wave, fixed, partition → reference → scene (the leaves
 //! error, output, limits, config, paper, progress and chart may be used from anywhere), scene's model
 //! never imports its OBJ reader (which builds model's types), and hw/ never depends on the host.
 
@@ -13,6 +13,7 @@ const LAYERS: &[(&str, u32)] = &[
     ("reference", 2),
     ("fixed", 3),
     ("partition", 3),
+    ("wave", 3),
     ("machine", 4),
     ("experiment", 5),
     ("size", 5),

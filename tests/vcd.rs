@@ -8,9 +8,9 @@
 
 mod common;
 
-use shellsim::machine::gtkw;
 use shellsim::machine::run::{RunSpec, RunStats};
-use shellsim::machine::vcd::{FstPack, ScopeFilter, VcdOptions, VcdSummary, VcdWriter, Window};
+use shellsim::wave::gtkw;
+use shellsim::wave::{FstPack, ScopeFilter, WaveOptions, WaveSummary, WaveWriter, Window};
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::machine::TickOrder;
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -229,7 +229,7 @@ fn small() -> MachineConfig {
 
 /// One waveform of scene1 on small.toml, ratio 1, with `opts`; returns the statistics, the
 /// writer's summary and the .gtkw path.
-fn run(dir: &Path, file: &str, opts: VcdOptions) -> (RunStats, VcdSummary, PathBuf) {
+fn run(dir: &Path, file: &str, opts: WaveOptions) -> (RunStats, WaveSummary, PathBuf) {
     let scene_file = common::scene_path("scene1.json");
     let scene = common::load("scene1.json");
     let spec = RunSpec {
@@ -238,7 +238,7 @@ fn run(dir: &Path, file: &str, opts: VcdOptions) -> (RunStats, VcdSummary, PathB
         order: TickOrder::Forward,
     };
     let path = dir.join(file);
-    let mut w = VcdWriter::create(&path, opts).unwrap();
+    let mut w = WaveWriter::create(&path, opts).unwrap();
     let out =
         shellsim::machine::run::run(&scene, &scene_file, &small(), &spec, Some(&mut w)).unwrap();
     assert_eq!(out.stats.mismatches_vs_fixed, 0);
@@ -252,7 +252,7 @@ fn run(dir: &Path, file: &str, opts: VcdOptions) -> (RunStats, VcdSummary, PathB
 struct Full {
     _dir: tempfile::TempDir,
     stats: RunStats,
-    summary: VcdSummary,
+    summary: WaveSummary,
     gtkw: PathBuf,
     wave: Wave,
 }
@@ -261,7 +261,7 @@ fn full() -> &'static Full {
     static FULL: OnceLock<Full> = OnceLock::new();
     FULL.get_or_init(|| {
         let dir = tempfile::tempdir().unwrap();
-        let (stats, summary, gtkw) = run(dir.path(), "full.vcd", VcdOptions::default());
+        let (stats, summary, gtkw) = run(dir.path(), "full.vcd", WaveOptions::default());
         let wave = read(&summary.path);
         Full {
             _dir: dir,
@@ -435,7 +435,7 @@ fn timestamps_increase_strictly_and_stay_inside_the_run() {
 fn two_runs_give_byte_identical_files() {
     let f = full();
     let dir = tempfile::tempdir().unwrap();
-    let (_, again, g) = run(dir.path(), "full.vcd", VcdOptions::default());
+    let (_, again, g) = run(dir.path(), "full.vcd", WaveOptions::default());
     assert_eq!(
         std::fs::read(&f.summary.path).unwrap(),
         std::fs::read(&again.path).unwrap(),
@@ -467,7 +467,7 @@ fn a_cycle_window_keeps_only_its_cycles_and_opens_with_the_full_state() {
     let (_, s, _) = run(
         dir.path(),
         "win.vcd",
-        VcdOptions {
+        WaveOptions {
             window: win,
             scope: None,
             ..Default::default()
@@ -516,7 +516,7 @@ fn a_cycle_window_keeps_only_its_cycles_and_opens_with_the_full_state() {
     let (_, s2, _) = run(
         dir.path(),
         "gap.vcd",
-        VcdOptions {
+        WaveOptions {
             window: win2,
             scope: None,
             ..Default::default()
@@ -547,7 +547,7 @@ fn a_scope_filter_declares_only_matching_signals() {
         let (_, s, g) = run(
             dir.path(),
             "scoped.vcd",
-            VcdOptions {
+            WaveOptions {
                 window: Window::ALL,
                 scope: Some(ScopeFilter::new(pattern)),
                 ..Default::default()
@@ -853,7 +853,7 @@ fn have_fst2vcd() -> bool {
 /// The FST of a run with `opts`, read back by GTKWave's `fst2vcd` (an independent reader),
 /// holds exactly the VCD's value changes of the same run: same scopes and names, same times,
 /// same values, FSM states included.
-fn fst_matches_vcd(opts: VcdOptions) {
+fn fst_matches_vcd(opts: WaveOptions) {
     let dir = tempfile::tempdir().unwrap();
     let (_, v, _) = run(dir.path(), "w.vcd", opts.clone());
     let (_, f, _) = run(dir.path(), "w.fst", opts);
@@ -888,7 +888,7 @@ fn the_fst_holds_exactly_the_vcds_value_changes() {
     if !have_fst2vcd() {
         return;
     }
-    fst_matches_vcd(VcdOptions {
+    fst_matches_vcd(WaveOptions {
         window: Window {
             from: 100,
             to: 3000,
@@ -905,7 +905,7 @@ fn a_windowed_scope_filtered_fst_holds_exactly_the_vcds_value_changes() {
     if !have_fst2vcd() {
         return;
     }
-    fst_matches_vcd(VcdOptions {
+    fst_matches_vcd(WaveOptions {
         window: Window {
             from: 500,
             to: 2500,
@@ -922,18 +922,19 @@ fn an_lz4_fst_holds_exactly_the_vcds_value_changes() {
     if !have_fst2vcd() {
         return;
     }
-    let opts = VcdOptions {
+    let opts = WaveOptions {
         window: Window {
             from: 100,
             to: 3000,
         },
         scope: None,
         fst_pack: FstPack::Lz4,
+        ..WaveOptions::default()
     };
     fst_matches_vcd(opts.clone());
     let dir = tempfile::tempdir().unwrap();
     let (_, lz4, _) = run(dir.path(), "lz4.fst", opts.clone());
-    let zlib = VcdOptions {
+    let zlib = WaveOptions {
         fst_pack: FstPack::Zlib,
         ..opts
     };
@@ -948,8 +949,8 @@ fn an_lz4_fst_holds_exactly_the_vcds_value_changes() {
 #[test]
 fn two_runs_give_byte_identical_fsts() {
     let dir = tempfile::tempdir().unwrap();
-    let (_, a, _) = run(dir.path(), "a.fst", VcdOptions::default());
-    let (_, b, _) = run(dir.path(), "b.fst", VcdOptions::default());
+    let (_, a, _) = run(dir.path(), "a.fst", WaveOptions::default());
+    let (_, b, _) = run(dir.path(), "b.fst", WaveOptions::default());
     assert!(a.bytes > 0);
     assert_eq!(
         std::fs::read(&a.path).unwrap(),

@@ -4,8 +4,8 @@
 use super::run::print_waveform;
 use crate::error::{Error, Result};
 use crate::machine::default_job::{default_job, WAVES_JSON, WAVES_VCD};
-use crate::machine::gtkw::path_for;
 use crate::output::{check_outputs, Output};
+use crate::wave::gtkw::path_for;
 use std::path::Path;
 
 /// Runs the default job and prints the summary table.

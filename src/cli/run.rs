@@ -4,8 +4,8 @@
 use super::args::{MachineArgs, OnOff, SceneSourceArgs};
 use crate::error::{Error, Result};
 use crate::machine::run::{execute, RunSpec, Waveform};
-use crate::machine::vcd::{FstPack, ScopeFilter, VcdOptions, WaveFormat, Window};
 use crate::output::{check_outputs, Output};
+use crate::wave::{FstPack, ScopeFilter, WaveFormat, WaveOptions, Window};
 use std::path::PathBuf;
 
 /// Arguments of `shellsim run`.
@@ -62,7 +62,6 @@ pub struct RunArgs {
 /// Runs `shellsim run`.
 pub fn run(a: &RunArgs) -> Result<()> {
     check_outputs(&a.outputs()?)?;
-    crate::machine::vcd::set_wave_limit(a.wave_limit);
     let (scene, source) = a.input.load()?;
     let mut cfg = a.machine.load()?;
     if let Some(b) = a.balance {
@@ -76,10 +75,11 @@ pub fn run(a: &RunArgs) -> Result<()> {
     let vcd = a.vcd.as_ref().or(a.wave.as_ref()).map(|p| {
         (
             p.clone(),
-            VcdOptions {
+            WaveOptions {
                 window: a.vcd_window.unwrap_or(Window::ALL),
                 scope: a.vcd_scope.as_deref().map(ScopeFilter::new),
                 fst_pack: a.fst_pack.unwrap_or_default(),
+                limit: a.wave_limit,
             },
         )
     });
@@ -146,7 +146,7 @@ impl RunArgs {
             if crate::output::is_file_path(p) {
                 v.push(Output::file(
                     &format!("{flag} (its .gtkw)"),
-                    &crate::machine::gtkw::path_for(p),
+                    &crate::wave::gtkw::path_for(p),
                 ));
             }
         }
@@ -164,7 +164,7 @@ fn parse_limit(s: &str) -> std::result::Result<u64, String> {
 pub fn print_waveform(w: &Waveform) {
     crate::output::outln!(
         "waveform: {} ({} signals, {} bytes) and {}",
-        w.vcd.display(),
+        w.path.display(),
         w.signals,
         w.bytes,
         w.gtkw.display()

@@ -8,13 +8,13 @@ use crate::error::Result;
 use crate::fixed::check::{check, CheckReport};
 use crate::fixed::records::HostFixed;
 use crate::machine::run::{execute, RunSpec, RunStats, Waveform};
-use crate::machine::vcd::{VcdOptions, Window};
 use crate::paper::PAPER_RAYS;
 use crate::reference::cast::{self, ReferenceReport};
 use crate::reference::rays::{hemisphere_rays, Directions, Origins, RaySpec};
 use crate::reference::tracer::Tracer;
 use crate::scene::gen::Kind;
 use crate::scene::Scene;
+use crate::wave::{WaveOptions, Window};
 use std::path::{Path, PathBuf};
 
 /// The paper's test scene 2, built in so the default job needs no files.
@@ -89,7 +89,7 @@ pub fn default_job() -> Result<DefaultJob> {
     };
     let vcd = (
         PathBuf::from(WAVES_VCD),
-        VcdOptions {
+        WaveOptions {
             window: Window::ALL,
             scope: None,
             ..Default::default()

@@ -6,10 +6,10 @@
 use crate::config;
 use crate::error::{Error, Result};
 use crate::fixed::records::HostFixed;
-use crate::machine::vcd::{VcdOptions, VcdWriter};
 use crate::output::write_json;
 use crate::partition::{self, Config as PartitionConfig};
 use crate::reference::tracer::Tracer;
+use crate::wave::{WaveOptions, WaveWriter};
 use crate::Scene;
 use serde::Serialize;
 use shellsim_hw::config::MachineConfig;
@@ -337,10 +337,10 @@ impl RunStats {
     }
 }
 
-/// The waveform a run wrote: the VCD and the GTKWave save file beside it.
+/// The waveform a run wrote: the VCD or FST and the GTKWave save file beside it.
 #[derive(Clone, Debug)]
 pub struct Waveform {
-    pub vcd: PathBuf,
+    pub path: PathBuf,
     pub signals: usize,
     pub bytes: u64,
     pub gtkw: PathBuf,
@@ -364,11 +364,11 @@ pub fn execute(
     file: &Path,
     cfg: &MachineConfig,
     spec: &RunSpec,
-    vcd: Option<(PathBuf, VcdOptions)>,
+    wave: Option<(PathBuf, WaveOptions)>,
     json: Option<&Path>,
 ) -> Result<Executed> {
-    if let Some((p, _)) = &vcd {
-        if crate::machine::gtkw::path_for(p) == *p {
+    if let Some((p, _)) = &wave {
+        if crate::wave::gtkw::path_for(p) == *p {
             return Err(Error::param(
                 "vcd",
                 format!(
@@ -378,8 +378,8 @@ pub fn execute(
             ));
         }
     }
-    let mut writer = match vcd {
-        Some((p, opts)) => Some(VcdWriter::create(&p, opts)?),
+    let mut writer = match wave {
+        Some((p, opts)) => Some(WaveWriter::create(&p, opts)?),
         None => None,
     };
     let started = std::time::Instant::now();
@@ -389,13 +389,13 @@ pub fn execute(
     let waveform = match writer {
         Some(w) => {
             let summary = w.finish()?;
-            let gtkw = crate::machine::gtkw::path_for(&summary.path);
+            let gtkw = crate::wave::gtkw::path_for(&summary.path);
             // A VCD streamed to a device or FIFO has no directory to put a save file in.
             if crate::output::is_file_path(&summary.path) {
-                crate::machine::gtkw::write(&gtkw, &summary)?;
+                crate::wave::gtkw::write(&gtkw, &summary)?;
             }
             Some(Waveform {
-                vcd: summary.path.clone(),
+                path: summary.path.clone(),
                 signals: summary.signals.len(),
                 bytes: summary.bytes,
                 gtkw,

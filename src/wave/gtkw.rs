@@ -27,8 +27,10 @@
 //!   a string `scope.name`, and a wider wire `scope.name[msb:lsb]` — so vectors carry their
 //!   `[w-1:0]` range here, exactly as `vcd_out` declares it.
 
+use super::fst::FST_TEXT_CHARS;
+use super::options::WaveFormat;
+use super::signal::{Signal, SignalKind, WaveSummary};
 use crate::error::Result;
-use crate::machine::vcd::{Signal, SignalKind, VcdSummary, WaveFormat, FST_TEXT_CHARS};
 use crate::output::write_atomic;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -335,7 +337,7 @@ fn units(out: &mut Out, signals: &[Signal]) {
 }
 
 /// Writes the save file for a finished waveform to `gtkw_path` (atomically).
-pub fn write(gtkw_path: &Path, wave: &VcdSummary) -> Result<()> {
+pub fn write(gtkw_path: &Path, wave: &WaveSummary) -> Result<()> {
     // Both by name only: the pair lies in one directory, so a moved pair still opens and
     // the file does not depend on where it was written.
     let name = |p: &Path| PathBuf::from(p.file_name().unwrap_or(p.as_os_str()));

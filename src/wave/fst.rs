@@ -1,8 +1,12 @@
-//! FST output: the value-change half of the waveform writer ([`super::vcd::VcdWriter`]) for a
+//! The FST format (GTKWave's compressed format): the header and the value changes of a
 //! `.fst` path, on the patched `fst-writer` crate (vendor/fst-writer).
 //!
-//! It runs on the waveform's own thread, fed the samples' value arrays in order by the
-//! simulation thread (the VCD's sample stream, `super::vcd`): each sample comes as its
+//! The crate writes bit vectors and reals only, so a string (an FSM state) is a bit vector of
+//! [`FST_TEXT_CHARS`] ASCII characters, right-aligned and NUL-padded, which the .gtkw shows in
+//! GTKWave's ASCII format: the same text as the VCD's string variable.
+//!
+//! The body runs on the waveform's own thread, fed the samples' value arrays in order by the
+//! simulation thread (`super::stream`): each sample comes as its
 //! changed values (the machine finds them as it fills its array), and each changed declared value goes to the crate
 //! as an integer (a text, an FSM state, as the bits of its ASCII characters), which encodes
 //! it into its signal's change chain; each section is compressed (zlib format through
@@ -10,11 +14,41 @@
 //! while the next one fills, so the file's bytes do not depend on the timing. Sections are
 //! cut every [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
 
-use super::vcd::{entries, Body, BodyEnd, BodyError, Clock, FstPack, ThreadBody, Window};
-use fst_writer::{FstBodyWriter, FstCompression, FstSignalId};
+use super::options::{FstPack, WaveOptions, Window};
+use super::signal::{ScopeNode, SignalKind, Slot};
+use super::stream::{entries, Body, BodyEnd, Clock};
+use fst_writer::{
+    FstBodyWriter, FstCompression, FstFileType, FstHeaderWriter, FstInfo, FstScopeType,
+    FstSignalId, FstSignalType, FstVarDirection, FstVarType,
+};
 use shellsim_hw::trace::{apply_changes, ChangeSink};
 use std::fs::File;
-use std::io::{self, BufWriter};
+use std::io::{self, BufWriter, Write};
+
+/// Characters of an FST text signal (the longest FSM state, SHELL_START, has 11); a longer
+/// text keeps its last 16 characters.
+pub const FST_TEXT_CHARS: u32 = 16;
+
+/// The FST's header writer, until the layout is declared.
+pub(super) type FstHeader = FstHeaderWriter<BufWriter<File>>;
+
+/// Starts the FST in `f`: its header block, the time starting at the window's start.
+pub(super) fn header(f: File, opts: &WaveOptions) -> fst_writer::Result<FstHeader> {
+    let buf = BufWriter::with_capacity(1 << 16, f);
+    let info = FstInfo {
+        start_time: if opts.window == Window::ALL {
+            0
+        } else {
+            opts.window.from
+        },
+        timescale_exponent: -9,
+        version: concat!("shellsim ", env!("CARGO_PKG_VERSION")).to_string(),
+        // No date, so the same run gives a byte-identical file.
+        date: String::new(),
+        file_type: FstFileType::Verilog,
+    };
+    FstHeaderWriter::new(buf, &info)
+}
 
 /// Cut a section (compressed on its own, on the crate's compressor thread while the next
 /// one fills) past this many bytes of encoded value changes: at Hi_Low_Ratio 10 nine sections,
@@ -34,18 +68,17 @@ fn compression(pack: FstPack) -> FstCompression {
 
 /// One probe signal as the FST body writes it.
 #[derive(Clone, Copy)]
-pub(crate) struct FstHandle {
+struct FstHandle {
     /// Its FST signal, when declared (inside the scope filter).
-    pub id: Option<FstSignalId>,
+    id: Option<FstSignalId>,
     /// A text (FSM state): written as the bits of its ASCII characters.
-    pub text: bool,
+    text: bool,
     /// Its width in the FST, in bits (a text's: 8 per character).
-    pub width: u32,
+    width: u32,
 }
 
-/// The FST's value changes, after the header, on the waveform's thread (`super::vcd`'s
-/// sample stream): the last sample's values, the window clock, and the crate's body writer.
-pub(crate) struct FstBody {
+/// The FST's value changes, after the header, on the waveform's thread (`super::stream`): the last sample's values, the window clock, and the crate's body writer.
+pub(super) struct FstBody {
     w: FstBodyWriter<BufWriter<File>>,
     /// Per probe signal (the sample's positions): its FST signal and how it is written.
     sigs: Vec<Sig>,
@@ -94,7 +127,7 @@ fn pack_bits(bits: &[u8]) -> Vec<u8> {
 }
 
 /// An FST error as an I/O error (the writer reports every failure as "writing: …").
-pub(crate) fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
+pub(super) fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
     match e {
         fst_writer::FstWriteError::Io(e) => e,
         e => io::Error::other(e.to_string()),
@@ -102,10 +135,44 @@ pub(crate) fn fst_err(e: fst_writer::FstWriteError) -> io::Error {
 }
 
 impl FstBody {
+    /// Declares the signals at `keep` (positions into `slots`) in the header `h` and returns
+    /// the body that writes the changes after it, with the declared positions in the
+    /// header's order; starts the thread that compresses the sections (as `pack` says).
+    pub(super) fn new(
+        mut h: FstHeader,
+        slots: &[Slot],
+        keep: &[usize],
+        pack: FstPack,
+    ) -> io::Result<(Self, Vec<usize>)> {
+        let mut decl = Declared {
+            ids: vec![None; slots.len()],
+            texts: vec![Vec::new(); slots.len()],
+            order: Vec::new(),
+        };
+        declare(&mut h, &ScopeNode::of(slots, keep), slots, &mut decl).map_err(fst_err)?;
+        let handles: Vec<FstHandle> = slots
+            .iter()
+            .zip(&decl.ids)
+            .map(|(s, &id)| FstHandle {
+                id,
+                text: s.sig.kind == SignalKind::Text,
+                width: fst_width(s),
+            })
+            .collect();
+        let order = decl.order;
+        let body = Self::on(
+            h.finish().map_err(fst_err)?,
+            handles,
+            decl.texts,
+            order.clone(),
+            pack,
+        )?;
+        Ok((body, order))
+    }
+
     /// The body writer `w` (the header written), the signals' handles and texts (by probe
-    /// position) and the declared order; starts the thread that compresses the sections
-    /// (as `pack` says).
-    pub(crate) fn new(
+    /// position) and the declared order.
+    fn on(
         mut w: FstBodyWriter<BufWriter<File>>,
         handles: Vec<FstHandle>,
         text_bits: Vec<Vec<Vec<u8>>>,
@@ -187,6 +254,10 @@ impl FstBody {
 }
 
 impl Body for FstBody {
+    fn values(&self) -> usize {
+        self.prev.len()
+    }
+
     fn state(&mut self) -> (&mut Clock, &mut [u64]) {
         (&mut self.clock, &mut self.prev)
     }
@@ -216,6 +287,16 @@ impl Body for FstBody {
             self.w.flush().map_err(fst_err)?;
         }
         Ok(())
+    }
+
+    /// Writes the last section and the header's totals.
+    fn end(self) -> io::Result<BodyEnd> {
+        let w = self.w.finish().map_err(fst_err)?;
+        let file = w.into_inner().map_err(|e| e.into_error())?;
+        Ok(BodyEnd {
+            file,
+            timestamps: self.stamps,
+        })
     }
 }
 
@@ -250,22 +331,61 @@ impl ChangeSink for FstBody {
     }
 }
 
-impl ThreadBody for FstBody {
-    fn values(&self) -> usize {
-        self.prev.len()
-    }
+/// What [`declare`] builds: per position its FST id and a text's values as FST bits, and
+/// the declared positions in the header's order.
+struct Declared {
+    ids: Vec<Option<FstSignalId>>,
+    texts: Vec<Vec<Vec<u8>>>,
+    order: Vec<usize>,
+}
 
-    fn sample(&mut self, win: Window, t: u64, changes: &[u64]) -> Result<(), BodyError> {
-        self.take_sample(win, t, changes).map_err(BodyError::Io)
+/// Declares `node`'s children in the FST, as the VCD's header does: a module scope each,
+/// its variables, then its sub-scopes.
+fn declare<W: Write + io::Seek>(
+    h: &mut FstHeaderWriter<W>,
+    node: &ScopeNode,
+    slots: &[Slot],
+    decl: &mut Declared,
+) -> fst_writer::Result<()> {
+    for c in &node.children {
+        h.scope(&c.name, "", FstScopeType::Module)?;
+        for &i in &c.vars {
+            let s = &slots[i];
+            let id = h.var(
+                &s.sig.name,
+                FstSignalType::bit_vec(fst_width(s)),
+                FstVarType::Wire,
+                FstVarDirection::Implicit,
+                None,
+            )?;
+            decl.ids[i] = Some(id);
+            let mut texts: Vec<Vec<u8>> = s.names.iter().map(|n| fst_text_bits(n)).collect();
+            texts.push(fst_text_bits("-"));
+            decl.texts[i] = texts;
+            decl.order.push(i);
+        }
+        declare(h, c, slots, decl)?;
+        h.up_scope()?;
     }
+    Ok(())
+}
 
-    /// Writes the last section and the header's totals.
-    fn end(self) -> io::Result<BodyEnd> {
-        let w = self.w.finish().map_err(fst_err)?;
-        let file = w.into_inner().map_err(|e| e.into_error())?;
-        Ok(BodyEnd {
-            file,
-            timestamps: self.stamps,
-        })
+/// A signal's width in the FST: a text's is [`FST_TEXT_CHARS`] ASCII characters.
+fn fst_width(s: &Slot) -> u32 {
+    match s.sig.kind {
+        SignalKind::Text => 8 * FST_TEXT_CHARS,
+        _ => s.sig.width,
     }
+}
+
+/// A text as FST writes it: [`FST_TEXT_CHARS`] ASCII characters, right-aligned and
+/// NUL-padded (a longer text keeps its tail), as '0'/'1' bytes MSB first.
+fn fst_text_bits(t: &str) -> Vec<u8> {
+    let bytes = t.as_bytes();
+    let n = FST_TEXT_CHARS as usize;
+    let tail = &bytes[bytes.len().saturating_sub(n)..];
+    let pad = std::iter::repeat_n(0u8, n - tail.len());
+    pad.chain(tail.iter().copied())
+        .flat_map(|c| format!("{c:08b}").into_bytes())
+        .collect()
 }
