@@ -25,7 +25,8 @@ pub mod msg;
 pub mod trace;
 pub mod units;
 
-pub use config::{DatapathConfig, Formats};
+pub use config::DatapathConfig;
+pub use datapath::format::Formats;
 pub use datapath::model::FixedScene;
 pub use datapath::record::{CellTable, PatchRecord, RayRecord};
 pub use datapath::{Exceptions, FixedHit};

@@ -136,7 +136,7 @@ impl Walks {
 }
 
 /// One subshell of a bundle: the unit of work of the machine, the paper's s' (see the module
-/// doc). The [`super::schedule::Schedule`] lists these as they are.
+/// doc). The `Schedule` (schedule.rs) lists these as they are.
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Subshell {
     /// The shell it belongs to.

@@ -649,7 +649,7 @@ pub struct Summary {
     /// The machine's time estimated from a sample of rows (`--sample`); the rows are the
     /// untimed model's.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub sampled: Option<crate::radiosity::sample::SampledTiming>,
+    pub sampled: Option<SampledTiming>,
     pub rows: Vec<RowSummary>,
 }
 
@@ -1017,4 +1017,21 @@ pub fn from_bytes(bytes: &[u8], path: &Path, scene: &Scene) -> Result<FormMatrix
         rows,
         machine: Vec::new(),
     })
+}
+/// The sampled estimate of a matrix's machine time (`sample.rs` makes it).
+#[derive(Clone, Debug, Serialize)]
+pub struct SampledTiming {
+    /// Rows of the matrix and rows run on the cycle model.
+    pub rows: usize,
+    pub sampled: usize,
+    pub strata: usize,
+    /// The sampled rows' ids, ascending.
+    pub sample: Vec<u32>,
+    /// The estimated total cycles and the half-width of its 95 % interval.
+    pub cycles_estimate: f64,
+    pub cycles_ci95: f64,
+    /// Cycles of the sampled rows, summed.
+    pub sampled_cycles: u64,
+    /// Rays whose machine hit differs from the untimed model's, over the sample (must be 0).
+    pub mismatches_vs_fixed: u64,
 }

@@ -12,34 +12,16 @@
 
 use crate::error::{Error, Result};
 use crate::radiosity::matrix::{
-    leak_check, records, run_row, validate, FormMatrix, MatrixSpec, Model, RowRun, Shared,
+    leak_check, records, run_row, validate, FormMatrix, MatrixSpec, Model, RowRun, SampledTiming,
+    Shared,
 };
 use crate::scene::Scene;
 use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rayon::prelude::*;
-use serde::Serialize;
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::Exceptions;
 use std::path::Path;
-
-/// The sampled estimate of a matrix's machine time.
-#[derive(Clone, Debug, Serialize)]
-pub struct SampledTiming {
-    /// Rows of the matrix and rows run on the cycle model.
-    pub rows: usize,
-    pub sampled: usize,
-    pub strata: usize,
-    /// The sampled rows' ids, ascending.
-    pub sample: Vec<u32>,
-    /// The estimated total cycles and the half-width of its 95 % interval.
-    pub cycles_estimate: f64,
-    pub cycles_ci95: f64,
-    /// Cycles of the sampled rows, summed.
-    pub sampled_cycles: u64,
-    /// Rays whose machine hit differs from the untimed model's, over the sample (must be 0).
-    pub mismatches_vs_fixed: u64,
-}
 
 /// The untimed walk's work of source `i`'s row: its run and Σ (cells + patch tests).
 fn fixed_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(RowRun, u64)> {

@@ -12,7 +12,7 @@ use std::path::Path;
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WaveFormat {
     Vcd,
-    /// FST (GTKWave's compressed format) through the `fst-writer` crate (see `super::fst`).
+    /// FST (GTKWave's compressed format) through the `fst-writer` crate (fst.rs).
     Fst,
 }
 

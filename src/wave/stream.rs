@@ -1,7 +1,7 @@
 //! The sample stream between the simulation thread and the waveform's own thread: each
 //! sample goes over as its cycle, its number of changes and each change's position and value
 //! (the simulation thread only copies the changes), and the thread hands them to the
-//! waveform's [`Body`] (`super::vcd`'s lines, `super::fst`'s chains) in the order sent, so the
+//! waveform's [`Body`] (the VCD's lines in vcd.rs, the FST's chains in fst.rs) in the order sent, so the
 //! bytes do not depend on the timing. Here too the window clock every body keeps.
 
 use super::options::Window;

@@ -7,7 +7,7 @@
 //! explicit `[w-1:0]` range when wider than one bit, so the name GTKWave gives it can be read
 //! off the declaration), a `string` variable for a text (FSM states), and for a fixed-point
 //! value a `wire` of its width holding the raw two's-complement value — the .gtkw file
-//! (`super::gtkw`) shows it as a decimal through GTKWave's fixed-point shift.
+//! (gtkw.rs) shows it as a decimal through GTKWave's fixed-point shift.
 //!
 //! **Time.** `$timescale 1 ns`: one time unit is one clock cycle and `#t` is the cycle
 //! number. The paper gives no clock rate, so the unit is nominal; 1 ns is chosen because

@@ -2,7 +2,7 @@
 //! table of hw/configs/*.toml), validated, with every intermediate width derived from them.
 
 use super::ConfigError;
-use crate::datapath::format::Format;
+use crate::datapath::format::{Fault, Format, Formats};
 use serde::{Deserialize, Serialize};
 
 /// The `[datapath]` table. Unknown keys are errors.
@@ -23,57 +23,6 @@ pub struct DatapathConfig {
     /// Margin, in coordinate LSBs, by which the host's cell table lists a patch in cells it
     /// comes near (the datapath's hit point may lie a few LSBs off the quantized polygon).
     pub cell_margin_lsb: u32,
-}
-
-/// The formats of every register and intermediate value of the datapath, derived from a
-/// [`DatapathConfig`] so that no intermediate can overflow (each width is the exact bound).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-pub struct Formats {
-    /// Vertices and ray origins, relative to the grid origin.
-    pub coord: Format,
-    /// Ray direction components (a unit vector: |d| ≤ 1).
-    pub dir: Format,
-    /// Shear factors sx = d_kx/d_kz, sy = d_ky/d_kz (|s| ≤ 1) and sz = 1/d_kz (|sz| ≤ √3).
-    pub shear: Format,
-    /// Vertex minus origin.
-    pub translated: Format,
-    /// Ray-space x, y, z of a vertex (after the shear's rounding).
-    pub ray_space: Format,
-    /// Edge functions (exact products of ray-space coordinates).
-    pub edge: Format,
-    /// The interpolation denominator (sum of three edge functions).
-    pub det: Format,
-    /// The interpolation numerator Σ e_i·z_i.
-    pub t_num: Format,
-    /// t.
-    pub t: Format,
-    /// Memory word width.
-    pub word_bits: u32,
-    /// A deliberate fault, for mutation checks only ([`Fault::None`] from every
-    /// configuration; never read from a file, never written out when absent).
-    #[serde(skip_serializing_if = "Fault::is_none")]
-    pub fault: Fault,
-}
-
-/// A deliberate datapath fault: what a verification suite must catch. A check that still
-/// passes with one injected cannot be trusted to catch the real thing.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-pub enum Fault {
-    /// The datapath as designed.
-    #[default]
-    None,
-    /// Rounding point A (the shear) truncates instead of rounding on the fourth vertex
-    /// lane only — as one lane of a hardware shear built with a different rounding. A
-    /// vertex shared by two patches in different lanes then lands on two lattice points,
-    /// and the surface cracks.
-    ShearLaneTruncates,
-}
-
-impl Fault {
-    /// True for the datapath as designed.
-    pub fn is_none(&self) -> bool {
-        *self == Fault::None
-    }
 }
 
 impl DatapathConfig {

@@ -5,7 +5,8 @@
 pub mod datapath;
 pub mod machine;
 
-pub use datapath::{DatapathConfig, Fault, Formats, HardwareCost};
+pub use crate::datapath::format::{Fault, Formats};
+pub use datapath::{DatapathConfig, HardwareCost};
 pub use machine::{ArbiterPolicy, BalanceTable, JobSource, Length, MachineTable, VictimPolicy};
 
 use serde::{Deserialize, Serialize};

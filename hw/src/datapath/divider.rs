@@ -9,7 +9,7 @@
 //! quotient equals [`super::divide`]'s t wherever that is a hit (tested below), which is what
 //! lets the co-simulation compare every divider register of the RTL with the model.
 
-use crate::config::Formats;
+use crate::datapath::format::Formats;
 use crate::datapath::Interpolated;
 
 /// The divider's geometry for a set of formats.

@@ -7,6 +7,7 @@
 //! `f64` and for printing values as decimals.
 
 use fixed::types::I64F64;
+use serde::Serialize;
 
 /// A signed fixed-point format: `int_bits` integer bits including the sign, `frac_bits`
 /// fractional bits. The value of raw integer `r` is `r · 2^-frac_bits`; the range is
@@ -124,6 +125,57 @@ pub const fn round_div(num: i128, den: i128) -> i128 {
 /// Bits needed to hold every value of `|x| <= m` as a signed number.
 pub fn signed_bits_for(m: u128) -> u32 {
     129 - (m as i128).leading_zeros().min(128)
+}
+
+/// The formats of every register and intermediate value of the datapath, derived from a
+/// `DatapathConfig` (config/datapath.rs) so that no intermediate can overflow (each width is the exact bound).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub struct Formats {
+    /// Vertices and ray origins, relative to the grid origin.
+    pub coord: Format,
+    /// Ray direction components (a unit vector: |d| ≤ 1).
+    pub dir: Format,
+    /// Shear factors sx = d_kx/d_kz, sy = d_ky/d_kz (|s| ≤ 1) and sz = 1/d_kz (|sz| ≤ √3).
+    pub shear: Format,
+    /// Vertex minus origin.
+    pub translated: Format,
+    /// Ray-space x, y, z of a vertex (after the shear's rounding).
+    pub ray_space: Format,
+    /// Edge functions (exact products of ray-space coordinates).
+    pub edge: Format,
+    /// The interpolation denominator (sum of three edge functions).
+    pub det: Format,
+    /// The interpolation numerator Σ e_i·z_i.
+    pub t_num: Format,
+    /// t.
+    pub t: Format,
+    /// Memory word width.
+    pub word_bits: u32,
+    /// A deliberate fault, for mutation checks only ([`Fault::None`] from every
+    /// configuration; never read from a file, never written out when absent).
+    #[serde(skip_serializing_if = "Fault::is_none")]
+    pub fault: Fault,
+}
+
+/// A deliberate datapath fault: what a verification suite must catch. A check that still
+/// passes with one injected cannot be trusted to catch the real thing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+pub enum Fault {
+    /// The datapath as designed.
+    #[default]
+    None,
+    /// Rounding point A (the shear) truncates instead of rounding on the fourth vertex
+    /// lane only — as one lane of a hardware shear built with a different rounding. A
+    /// vertex shared by two patches in different lanes then lands on two lattice points,
+    /// and the surface cracks.
+    ShearLaneTruncates,
+}
+
+impl Fault {
+    /// True for the datapath as designed.
+    pub fn is_none(&self) -> bool {
+        *self == Fault::None
+    }
 }
 
 #[cfg(test)]

@@ -2,8 +2,8 @@
 //! nearest hit by brute force over all patch records, or by the CTU's exact fixed-point DDA
 //! over the cell table; the two agree exactly.
 
-use crate::config::Formats;
 use crate::datapath::dda::FixedDda;
+use crate::datapath::format::Formats;
 use crate::datapath::record::{CellTable, PatchRecord, RayRecord};
 use crate::datapath::{compare, intersect, Exceptions, FixedHit};
 

@@ -9,8 +9,8 @@
 //! cell's first patch id in the id list (32 bits) and the count (16 bits); id list: 24 bits
 //! per id.
 
-use crate::config::Formats;
 use crate::datapath::format::round_div;
+use crate::datapath::format::Formats;
 use bitvec::prelude::*;
 
 /// Bits of a patch id.

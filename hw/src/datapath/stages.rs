@@ -20,8 +20,8 @@
 //! Stage costs (cycles each stands for) are set by the ICU's configuration (a later issue).
 //! The divider is a radix-2 restoring divider: one quotient bit per cycle, pipelined.
 
-use crate::config::{Fault, Formats};
 use crate::datapath::format::{round_div, round_shift};
+use crate::datapath::format::{Fault, Formats};
 use crate::datapath::record::{PatchRecord, RayRecord};
 
 /// Exceptions counted by the datapath, never silent.

@@ -14,7 +14,7 @@
 //! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
 //! own state, not links of this table; `Cluster::commit` clocks them.
 
-use super::probe::{Sink, LINK_SIGNALS};
+use super::sink::{Sink, LINK_SIGNALS};
 use crate::config::MachineTable;
 use crate::link::{Link, TouchWord, UnitId};
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};

@@ -14,6 +14,7 @@
 mod jump;
 pub mod links;
 mod probe;
+mod sink;
 mod tick;
 mod watchdog;
 

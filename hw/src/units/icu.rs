@@ -11,7 +11,7 @@
 //! raises are counted when the job passes the divider, as the staged hardware counts them.
 //! [`Icu::stage`] rebuilds any stage's intermediate values for inspection.
 
-use crate::config::Formats;
+use crate::datapath::format::Formats;
 use crate::datapath::record::{PatchRecord, RayRecord};
 use crate::datapath::{self, Edges, Exceptions, Interpolated, RaySpace, Translated};
 use crate::link::{Link, UnitCode, UnitId};
