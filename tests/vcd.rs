@@ -245,7 +245,82 @@ fn run(dir: &Path, file: &str, opts: WaveOptions) -> (RunStats, WaveSummary, Pat
     let summary = w.finish().unwrap();
     let g = gtkw::path_for(&path);
     gtkw::write(&g, &summary).unwrap();
+    read_back(&summary);
     (out.stats, summary, g)
+}
+
+/// Every waveform a test writes is read back by wellen (Surfer's reader, a dev-dependency,
+/// so in every environment): it declares the summary's signals, and a VCD's changes as
+/// wellen reads them are the ones its text holds.
+fn read_back(summary: &WaveSummary) {
+    let got = wellen_changes(&summary.path);
+    let mut names: Vec<String> = summary.signals.iter().map(|s| s.full_name()).collect();
+    names.sort();
+    assert_eq!(got.keys().cloned().collect::<Vec<_>>(), names);
+    if summary.path.extension().is_some_and(|e| e == "vcd") {
+        let text = std::fs::read_to_string(&summary.path).unwrap();
+        assert_eq!(got, changes_of(&text), "{}", summary.path.display());
+    }
+}
+
+/// Every variable's `(time, value)` changes as wellen reads the file (VCD or FST), in
+/// [`changes_of`]'s form (an FST's initial all-x values left out, as the VCD has none).
+fn wellen_changes(path: &Path) -> BTreeMap<String, Vec<(u64, String)>> {
+    let mut w = wellen::simple::read(path)
+        .unwrap_or_else(|e| panic!("wellen cannot read {}: {e}", path.display()));
+    let h = w.hierarchy();
+    let vars: Vec<(String, u32, wellen::SignalRef)> = h
+        .all_vars()
+        .map(|r| {
+            let v = &h[r];
+            let width = v.length(h).unwrap_or(0);
+            (v.full_name(h), width, v.signal_ref())
+        })
+        .collect();
+    let refs: Vec<_> = vars.iter().map(|v| v.2).collect();
+    w.load_signals(&refs);
+    let times = w.time_table().to_vec();
+    let mut out = BTreeMap::new();
+    for (name, width, r) in vars {
+        let sig = w.get_signal(r).expect("loaded");
+        let mut ch = Vec::new();
+        for (ti, v) in sig.iter_changes() {
+            let v = match v {
+                wellen::SignalValueRef::String(s) => s.to_string(),
+                v => {
+                    let bits = v.to_bit_string().expect("a bit vector");
+                    if bits.chars().all(|c| c == 'x') {
+                        continue;
+                    }
+                    normalized(&bits, width)
+                }
+            };
+            ch.push((times[ti as usize], v));
+        }
+        out.insert(name, ch);
+    }
+    out
+}
+
+/// A vector's bits as [`changes_of`] gives them: without leading zeros ("0" for zero), an
+/// FST's 128-bit ASCII text decoded.
+fn normalized(v: &str, w: u32) -> String {
+    if w == 128 {
+        let bits = format!("{:0>128}", v);
+        return bits
+            .as_bytes()
+            .chunks(8)
+            .map(|c| u8::from_str_radix(std::str::from_utf8(c).unwrap(), 2).unwrap_or(b'?'))
+            .filter(|&b| b != 0)
+            .map(char::from)
+            .collect();
+    }
+    let z = v.trim_start_matches('0');
+    if z.is_empty() {
+        "0".into()
+    } else {
+        z.into()
+    }
 }
 
 /// The full waveform, made once for all tests.
@@ -772,25 +847,7 @@ fn changes_of(text: &str) -> BTreeMap<String, Vec<(u64, String)>> {
     let mut names: HashMap<String, (String, u32)> = HashMap::new();
     let mut out: BTreeMap<String, Vec<(u64, String)>> = BTreeMap::new();
     let mut t = 0u64;
-    let norm = |v: &str, w: u32| -> String {
-        if w == 128 {
-            let bits = format!("{:0>128}", v);
-            let s: String = bits
-                .as_bytes()
-                .chunks(8)
-                .map(|c| u8::from_str_radix(std::str::from_utf8(c).unwrap(), 2).unwrap_or(b'?'))
-                .filter(|&b| b != 0)
-                .map(char::from)
-                .collect();
-            return s;
-        }
-        let z = v.trim_start_matches('0');
-        if z.is_empty() {
-            "0".into()
-        } else {
-            z.into()
-        }
-    };
+    let norm = normalized;
     for line in text.lines() {
         let tok: Vec<&str> = line.split_whitespace().collect();
         match tok.first().copied() {
@@ -850,22 +907,31 @@ fn have_fst2vcd() -> bool {
     ok
 }
 
-/// The FST of a run with `opts`, read back by GTKWave's `fst2vcd` (an independent reader),
-/// holds exactly the VCD's value changes of the same run: same scopes and names, same times,
-/// same values, FSM states included.
+/// The FST of a run with `opts`, read back by wellen (everywhere) and by GTKWave's `fst2vcd`
+/// (where installed; CI installs it), two independent readers, holds exactly the VCD's value
+/// changes of the same run: same scopes and names, same times, same values, FSM states
+/// included.
 fn fst_matches_vcd(opts: WaveOptions) {
     let dir = tempfile::tempdir().unwrap();
     let (_, v, _) = run(dir.path(), "w.vcd", opts.clone());
     let (_, f, _) = run(dir.path(), "w.fst", opts);
     assert_eq!(v.signals, f.signals);
+    let from_vcd = changes_of(&std::fs::read_to_string(&v.path).unwrap());
+    assert_eq!(from_vcd.len(), v.signals.len());
+    assert_eq!(
+        wellen_changes(&f.path),
+        from_vcd,
+        "wellen's reading of the FST"
+    );
+    if !have_fst2vcd() {
+        return;
+    }
     let o = std::process::Command::new("fst2vcd")
         .arg(&f.path)
         .output()
         .unwrap();
     assert!(o.status.success());
     let from_fst = changes_of(&String::from_utf8(o.stdout).unwrap());
-    let from_vcd = changes_of(&std::fs::read_to_string(&v.path).unwrap());
-    assert_eq!(from_vcd.len(), v.signals.len());
     assert_eq!(
         from_fst.keys().collect::<Vec<_>>(),
         from_vcd.keys().collect::<Vec<_>>()
@@ -885,9 +951,6 @@ fn fst_matches_vcd(opts: WaveOptions) {
 /// A cycle window: the FST holds exactly the VCD's value changes.
 #[test]
 fn the_fst_holds_exactly_the_vcds_value_changes() {
-    if !have_fst2vcd() {
-        return;
-    }
     fst_matches_vcd(WaveOptions {
         window: Window {
             from: 100,
@@ -902,9 +965,6 @@ fn the_fst_holds_exactly_the_vcds_value_changes() {
 /// changes, of the filtered signals only.
 #[test]
 fn a_windowed_scope_filtered_fst_holds_exactly_the_vcds_value_changes() {
-    if !have_fst2vcd() {
-        return;
-    }
     fst_matches_vcd(WaveOptions {
         window: Window {
             from: 500,
@@ -919,9 +979,6 @@ fn a_windowed_scope_filtered_fst_holds_exactly_the_vcds_value_changes() {
 /// it is not the zlib file (the pack was applied).
 #[test]
 fn an_lz4_fst_holds_exactly_the_vcds_value_changes() {
-    if !have_fst2vcd() {
-        return;
-    }
     let opts = WaveOptions {
         window: Window {
             from: 100,
