@@ -1015,3 +1015,64 @@ fn two_runs_give_byte_identical_fsts() {
         "FST differs between two identical runs"
     );
 }
+
+/// A probe that keeps the scopes `keep` says and records the layout the machine declares.
+struct Keeping {
+    keep: fn(&str) -> bool,
+    declared: Vec<String>,
+    samples: u64,
+}
+
+impl shellsim_hw::trace::Probe for Keeping {
+    fn wants(&self, scope: &str) -> bool {
+        (self.keep)(scope)
+    }
+    fn declare(&mut self, signals: &[shellsim_hw::trace::SignalDecl]) {
+        self.declared = signals.iter().map(|d| d.scope.clone()).collect();
+    }
+    fn sample(&mut self, _: u64, _: &[u64]) {
+        self.samples += 1;
+    }
+}
+
+/// The scope filter is applied where the machine declares its signals: a unit the probe
+/// keeps nothing of is neither declared nor sampled (so it costs nothing per cycle), and the
+/// units it keeps are declared whole.
+#[test]
+fn the_machine_declares_only_the_units_a_probe_wants() {
+    let scene_file = common::scene_path("scene1.json");
+    let scene = common::load("scene1.json");
+    let spec = RunSpec {
+        source: 0,
+        ratio: 1,
+        order: TickOrder::Forward,
+    };
+    let layout = |keep: fn(&str) -> bool| {
+        let mut p = Keeping {
+            keep,
+            declared: Vec::new(),
+            samples: 0,
+        };
+        shellsim::machine::run::run(&scene, &scene_file, &small(), &spec, Some(&mut p)).unwrap();
+        assert!(p.samples > 0);
+        p.declared
+    };
+    let all = layout(|_| true);
+    let one = layout(|s| s.starts_with("machine.cluster_1.ctu_0"));
+    assert!(
+        !one.is_empty() && one.len() < all.len() / 4,
+        "{} of {}",
+        one.len(),
+        all.len()
+    );
+    assert!(
+        one.iter().all(|s| s.starts_with("machine.cluster_1.ctu_0")),
+        "{one:?}"
+    );
+    let want: Vec<&String> = all
+        .iter()
+        .filter(|s| s.starts_with("machine.cluster_1.ctu_0"))
+        .collect();
+    assert_eq!(one.iter().collect::<Vec<_>>(), want);
+    assert!(layout(|_| false).is_empty());
+}

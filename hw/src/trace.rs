@@ -55,6 +55,15 @@ pub trait Probe {
     fn shifts_stages(&self) -> bool {
         false
     }
+    /// True when the probe keeps some signals of `scope` (a dotted unit path): the machine
+    /// neither declares nor samples a unit none of whose scopes it keeps, so signals filtered
+    /// out cost nothing per cycle. Asked once per scope, before the layout is declared; a
+    /// probe still gets the whole of a unit one of whose scopes it keeps (an ICU's stages go
+    /// together), and drops the rest itself.
+    fn wants(&self, scope: &str) -> bool {
+        let _ = scope;
+        true
+    }
     /// True when the probe cannot go on (a waveform past its size limit): the machine then
     /// ends the run early and the caller reports the probe's error.
     fn stop(&self) -> bool {

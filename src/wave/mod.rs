@@ -75,6 +75,8 @@ pub struct WaveWriter {
     whole: Option<bool>,
     /// True once the layout is declared and the header written.
     header_done: bool,
+    /// True once the probe declared its layout (even an empty one).
+    layout_declared: bool,
     samples: u64,
     timestamps: u64,
     /// The first error; later calls do nothing and `finish` reports it.
@@ -116,6 +118,7 @@ impl WaveWriter {
             changed: Vec::new(),
             whole: None,
             header_done: false,
+            layout_declared: false,
             samples: 0,
             timestamps: 0,
             error: None,
@@ -227,7 +230,9 @@ impl WaveWriter {
         let keep: Vec<usize> = (0..self.slots.len())
             .filter(|&i| filter.is_none_or(|f| f.matches(&self.slots[i].sig.scope)))
             .collect();
-        if let (Some(f), true) = (filter, keep.is_empty() && !self.slots.is_empty()) {
+        // The machine leaves out the units the filter keeps nothing of (`Probe::wants`): a
+        // declared layout with nothing kept matched nothing, whether or not it is empty.
+        if let (Some(f), true) = (filter, keep.is_empty() && self.layout_declared) {
             let msg = format!(
                 "--vcd-scope {:?} matches no signal (scopes look like machine.memory.arbiter, machine.cluster_0.icu.stage_0, machine.cluster_0.ctu_0); nothing written",
                 crate::error::shown(f.pattern())
@@ -271,6 +276,7 @@ impl Probe for WaveWriter {
             self.fail("the probe declared its signals twice");
             return;
         }
+        self.layout_declared = true;
         let mut seen = std::collections::HashSet::new();
         for d in signals {
             if !(1..=64).contains(&d.width) {
@@ -353,6 +359,11 @@ impl Probe for WaveWriter {
     /// the move adds (BENCHMARKS.md, session 10).
     fn shifts_stages(&self) -> bool {
         self.format == WaveFormat::Vcd
+    }
+
+    /// Inside the scope filter: the machine leaves the other units out of the layout.
+    fn wants(&self, scope: &str) -> bool {
+        self.opts.scope.as_ref().is_none_or(|f| f.matches(scope))
     }
 
     fn stop(&self) -> bool {

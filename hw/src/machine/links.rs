@@ -64,6 +64,8 @@ macro_rules! links {
             k: usize,
             /// Waveform scope of each link, per family (built once).
             scopes: Scopes,
+            /// Per family, whether the waveform shows each link (`Links::show_only`).
+            shown: Shown,
             /// Each family's touch words: its link i raises bit i % 64 of word i / 64.
             touch: Touch,
         }
@@ -79,6 +81,11 @@ macro_rules! links {
             $( $name: Vec<String>, )*
         }
 
+        #[derive(Clone, Debug, Default)]
+        struct Shown {
+            $( $name: Vec<bool>, )*
+        }
+
         impl Links {
             /// Every link, wired, for the machine `m`.
             pub fn new(m: &MachineTable) -> Self {
@@ -91,6 +98,7 @@ macro_rules! links {
                     }
                 };
                 let mut scopes = Scopes::default();
+                let mut shown = Shown::default();
                 let mut touch = Touch::default();
                 $(
                     let cap: fn(&MachineTable) -> usize = $cap;
@@ -99,6 +107,7 @@ macro_rules! links {
                     let scope: fn(usize, usize) -> String = $scope;
                     let at = ends(Shape::$shape);
                     scopes.$name = at.iter().map(|&(c, j)| scope(c, j)).collect();
+                    shown.$name = vec![true; at.len()];
                     let mut $name: Vec<Link<$t>> = at
                         .iter()
                         .map(|&(c, j)| Link::new(cap(m)).wired(from(c, j), to(c, j)))
@@ -108,7 +117,14 @@ macro_rules! links {
                         l.log_touches(&touch.$name[i / 64], (i % 64) as u32);
                     }
                 )*
-                Links { $( $name, )* k, scopes, touch }
+                Links { $( $name, )* k, scopes, shown, touch }
+            }
+
+            /// The waveform shows only the links whose scope `wants` (all, until called).
+            pub(super) fn show_only(&mut self, wants: &dyn Fn(&str) -> bool) {
+                $(
+                    self.shown.$name = self.scopes.$name.iter().map(|s| wants(s)).collect();
+                )*
             }
 
             /// The clock edge of every link: those touched this cycle commit, the others
@@ -130,22 +146,24 @@ macro_rules! links {
                     let shape = Shape::$shape;
                     match (want, section) {
                         (Section::Arbiter, Section::Arbiter) => {
-                            for (l, s) in self.$name.iter().zip(&self.scopes.$name) {
+                            let shown = self.$name.iter().zip(&self.scopes.$name).zip(&self.shown.$name);
+                            for ((l, s), _) in shown.filter(|x| *x.1) {
                                 probe_link(p, s, l);
                             }
                         }
-                        (Section::Balance(_), Section::Balance(c)) => {
+                        (Section::Balance(_), Section::Balance(c))
+                        | (Section::BundleCluster(_), Section::BundleCluster(c)) => {
                             let i = self.index(shape, c, 0);
-                            probe_link(p, &self.scopes.$name[i], &self.$name[i]);
+                            if self.shown.$name[i] {
+                                probe_link(p, &self.scopes.$name[i], &self.$name[i]);
+                            }
                         }
                         (Section::Ctu(..), Section::Ctu(c, j))
                         | (Section::BundleCtu(..), Section::BundleCtu(c, j)) => {
                             let i = self.index(shape, c, j);
-                            probe_link(p, &self.scopes.$name[i], &self.$name[i]);
-                        }
-                        (Section::BundleCluster(_), Section::BundleCluster(c)) => {
-                            let i = self.index(shape, c, 0);
-                            probe_link(p, &self.scopes.$name[i], &self.$name[i]);
+                            if self.shown.$name[i] {
+                                probe_link(p, &self.scopes.$name[i], &self.$name[i]);
+                            }
                         }
                         _ => {}
                     }

@@ -326,7 +326,10 @@ impl Machine<'_> {
     /// machine), then the sample's values.
     pub fn probe(&mut self, p: &mut dyn Probe) {
         if self.scopes.is_none() {
-            let sc = Scopes::new(self);
+            // Units whose scopes the probe keeps none of are left out of the layout.
+            let wants = |s: &str| p.wants(s);
+            self.links.show_only(&wants);
+            let sc = Scopes::new(self, &wants);
             let mut d = Declare(Vec::new());
             self.walk(&sc, &mut d);
             p.declare(&d.0);
@@ -404,22 +407,26 @@ impl Machine<'_> {
         let t_frac = self.scene.formats.t.frac_bits;
         let t_bits = self.scene.formats.t.bits();
         let bundle = self.cfg.machine.job_source == crate::config::JobSource::Bundle;
-        p.bits(
-            &sc.memory,
-            "port_busy",
-            1,
-            self.memory.port_busy(now) as u64,
-        );
-        p.bits(&sc.memory, "in_flight", 16, self.memory.inflight() as u64);
-        p.bits(&sc.memory, "grants", 32, self.memory.stats.grants);
-        p.bits(
-            &sc.arbiter,
-            "last_grant",
-            16,
-            self.memory.last_grant.min(0xFFFF) as u64,
-        );
+        if sc.shown.memory {
+            p.bits(
+                &sc.memory,
+                "port_busy",
+                1,
+                self.memory.port_busy(now) as u64,
+            );
+            p.bits(&sc.memory, "in_flight", 16, self.memory.inflight() as u64);
+            p.bits(&sc.memory, "grants", 32, self.memory.stats.grants);
+        }
+        if sc.shown.arbiter {
+            p.bits(
+                &sc.arbiter,
+                "last_grant",
+                16,
+                self.memory.last_grant.min(0xFFFF) as u64,
+            );
+        }
         self.links.probe(p, Section::Arbiter);
-        if self.cfg.balance.enabled {
+        if self.cfg.balance.enabled && sc.shown.balancer {
             p.bits(
                 &sc.balancer,
                 "split_orders",
@@ -437,7 +444,7 @@ impl Machine<'_> {
         // The scopes are looked up without an index (a filler uses none of them, and then
         // nothing is left of the lookups); `Scopes::new` made one per unit.
         for (c, (cl, cs)) in self.clusters.iter().zip(&sc.clusters).enumerate() {
-            if self.cfg.balance.enabled {
+            if self.cfg.balance.enabled && cs.shown.balance {
                 p.bits(
                     &cs.balance,
                     "work_request",
@@ -450,11 +457,17 @@ impl Machine<'_> {
                     16,
                     self.balancer.inbound(c) as u64,
                 );
+            }
+            if self.cfg.balance.enabled {
                 self.links.probe(p, Section::Balance(c));
             }
-            probe_link(p, &cs.patch_buffer, &cl.patch_buffer.store);
-            probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
-            if bundle {
+            if cs.shown.patch_buffer {
+                probe_link(p, &cs.patch_buffer, &cl.patch_buffer.store);
+            }
+            if cs.shown.ray_buffer {
+                probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
+            }
+            if bundle && cs.shown.ray_buffer {
                 let rb = &cl.ray_buffer;
                 let (patch, left) = rb.expanding().unwrap_or((0, 0));
                 p.bits(&cs.ray_buffer, "descriptors", 16, rb.descriptors() as u64);
@@ -476,6 +489,8 @@ impl Machine<'_> {
                         self.balancer.inbound_descriptors(c) as u64,
                     );
                 }
+            }
+            if bundle {
                 self.links.probe(p, Section::BundleCluster(c));
             }
             for (j, (ctu, s)) in cl.ctus.iter().zip(&cs.ctus).enumerate() {
@@ -483,7 +498,8 @@ impl Machine<'_> {
                 // change in a cycle it did not tick actively.
                 let u = self.clusters.len() + c * cl.ctus.len() + j;
                 let ticked = ctu.take_ticked();
-                if !p.skip_quiet(u, ctu.is_finished(), 6) && !p.skip_unchanged(ticked, 6) {
+                let shown = cs.shown.ctus.get(j).copied().unwrap_or(true);
+                if shown && !p.skip_quiet(u, ctu.is_finished(), 6) && !p.skip_unchanged(ticked, 6) {
                     p.text(s, "state", CtuState::NAMES, ctu.state.index());
                     p.bits(s, "shell", 16, ctu.shell() as u64);
                     p.bits(s, "remaining_rays", 32, ctu.remaining() as u64);
@@ -493,11 +509,18 @@ impl Machine<'_> {
                 }
                 self.links.probe(p, Section::Ctu(c, j));
                 if bundle {
-                    p.bits(s, "descriptors", 32, ctu.stats.descriptors);
+                    if shown {
+                        p.bits(s, "descriptors", 32, ctu.stats.descriptors);
+                    }
                     self.links.probe(p, Section::BundleCtu(c, j));
                 }
             }
-            p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
+            if cs.shown.icu {
+                p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
+            }
+            if !cs.shown.stages {
+                continue;
+            }
             // Four signals a stage (the count `skip_quiet` is told), all zero when empty; the
             // first three (valid, ray, patch) move on a stage as the pipeline advances.
             let depth = cl.icu.depth();
@@ -560,6 +583,8 @@ pub(super) struct Scopes {
     balancer: String,
     arbiter: String,
     clusters: Vec<ClusterScopes>,
+    /// Which of these the probe keeps ([`crate::trace::Probe::wants`]).
+    shown: Shown,
     /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
     signals: usize,
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
@@ -568,6 +593,26 @@ pub(super) struct Scopes {
     ring: Vec<Cell<usize>>,
     /// The value array holds a whole sample (after the first fill).
     filled: bool,
+}
+
+/// Whether the probe keeps a unit's signals (any of its scopes), per unit.
+#[derive(Clone, Copy, Debug)]
+struct Shown {
+    memory: bool,
+    balancer: bool,
+    arbiter: bool,
+}
+
+/// [`Shown`] for a cluster's units.
+#[derive(Clone, Debug)]
+struct ClusterShown {
+    balance: bool,
+    patch_buffer: bool,
+    ray_buffer: bool,
+    ctus: Vec<bool>,
+    icu: bool,
+    /// Any of the ICU's stages (they are walked together).
+    stages: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -579,27 +624,51 @@ struct ClusterScopes {
     ctus: Vec<String>,
     icu: String,
     stages: Vec<String>,
+    shown: ClusterShown,
 }
 
 impl Scopes {
-    fn new(m: &Machine) -> Self {
+    /// The scopes of `m`'s units, each shown when `wants` it.
+    fn new(m: &Machine, wants: &dyn Fn(&str) -> bool) -> Self {
         let k = m.cfg.machine.ctus_per_cluster as usize;
+        let memory = "machine.memory";
+        let balancer = "machine.balancer";
+        let arbiter = "machine.memory.arbiter";
         Scopes {
-            memory: "machine.memory".into(),
-            balancer: "machine.balancer".into(),
-            arbiter: "machine.memory.arbiter".into(),
+            shown: Shown {
+                memory: wants(memory),
+                balancer: wants(balancer),
+                arbiter: wants(arbiter),
+            },
+            memory: memory.into(),
+            balancer: balancer.into(),
+            arbiter: arbiter.into(),
             clusters: (0..m.clusters.len())
                 .map(|c| {
                     let base = format!("machine.cluster_{c}");
+                    let balance = format!("{base}.balance");
+                    let patch_buffer = format!("{base}.patch_buffer");
+                    let ray_buffer = format!("{base}.ray_buffer");
+                    let ctus: Vec<String> = (0..k).map(|j| format!("{base}.ctu_{j}")).collect();
+                    let icu = format!("{base}.icu");
+                    let stages: Vec<String> = (0..m.clusters[c].icu.depth())
+                        .map(|n| format!("{base}.icu.stage_{n}"))
+                        .collect();
                     ClusterScopes {
-                        balance: format!("{base}.balance"),
-                        patch_buffer: format!("{base}.patch_buffer"),
-                        ray_buffer: format!("{base}.ray_buffer"),
-                        ctus: (0..k).map(|j| format!("{base}.ctu_{j}")).collect(),
-                        icu: format!("{base}.icu"),
-                        stages: (0..m.clusters[c].icu.depth())
-                            .map(|n| format!("{base}.icu.stage_{n}"))
-                            .collect(),
+                        shown: ClusterShown {
+                            balance: wants(&balance),
+                            patch_buffer: wants(&patch_buffer),
+                            ray_buffer: wants(&ray_buffer),
+                            ctus: ctus.iter().map(|s| wants(s)).collect(),
+                            icu: wants(&icu),
+                            stages: stages.iter().any(|s| wants(s)),
+                        },
+                        balance,
+                        patch_buffer,
+                        ray_buffer,
+                        ctus,
+                        icu,
+                        stages,
                     }
                 })
                 .collect(),
