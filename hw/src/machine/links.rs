@@ -120,6 +120,11 @@ macro_rules! links {
                 Links { $( $name, )* k, scopes, shown, touch }
             }
 
+            /// True when the waveform shows every link.
+            pub(super) fn all_shown(&self) -> bool {
+                true $( && self.shown.$name.iter().all(|&x| x) )*
+            }
+
             /// The waveform shows only the links whose scope `wants` (all, until called).
             pub(super) fn show_only(&mut self, wants: &dyn Fn(&str) -> bool) {
                 $(
@@ -140,28 +145,29 @@ macro_rules! links {
 
             /// Reports the links of `section` to `p`, family by family in table order.
             #[inline(always)]
-            pub(super) fn probe<S: Sink>(&self, p: &mut S, section: Section) {
+            pub(super) fn probe<S: Sink, const FILTERED: bool>(&self, p: &mut S, section: Section) {
                 $(
                     let want: Section = $section;
                     let shape = Shape::$shape;
                     match (want, section) {
                         (Section::Arbiter, Section::Arbiter) => {
-                            let shown = self.$name.iter().zip(&self.scopes.$name).zip(&self.shown.$name);
-                            for ((l, s), _) in shown.filter(|x| *x.1) {
-                                probe_link(p, s, l);
+                            for (i, (l, s)) in self.$name.iter().zip(&self.scopes.$name).enumerate() {
+                                if !FILTERED || self.shown.$name[i] {
+                                    probe_link(p, s, l);
+                                }
                             }
                         }
                         (Section::Balance(_), Section::Balance(c))
                         | (Section::BundleCluster(_), Section::BundleCluster(c)) => {
                             let i = self.index(shape, c, 0);
-                            if self.shown.$name[i] {
+                            if !FILTERED || self.shown.$name[i] {
                                 probe_link(p, &self.scopes.$name[i], &self.$name[i]);
                             }
                         }
                         (Section::Ctu(..), Section::Ctu(c, j))
                         | (Section::BundleCtu(..), Section::BundleCtu(c, j)) => {
                             let i = self.index(shape, c, j);
-                            if self.shown.$name[i] {
+                            if !FILTERED || self.shown.$name[i] {
                                 probe_link(p, &self.scopes.$name[i], &self.$name[i]);
                             }
                         }

@@ -403,11 +403,23 @@ impl Machine<'_> {
 
     /// Visits every signal in the waveform's order.
     fn walk<S: Sink>(&self, sc: &Scopes, p: &mut S) {
+        // Two copies: with every unit shown (the tests of `Scopes::shown` compiled out, as
+        // no scope filter costs anything) and with some left out.
+        if sc.all_shown {
+            self.walk_shown::<S, false>(sc, p)
+        } else {
+            self.walk_shown::<S, true>(sc, p)
+        }
+    }
+
+    /// [`Machine::walk`], testing which units are shown when `FILTERED`.
+    #[inline(always)]
+    fn walk_shown<S: Sink, const FILTERED: bool>(&self, sc: &Scopes, p: &mut S) {
         let now = self.cycle;
         let t_frac = self.scene.formats.t.frac_bits;
         let t_bits = self.scene.formats.t.bits();
         let bundle = self.cfg.machine.job_source == crate::config::JobSource::Bundle;
-        if sc.shown.memory {
+        if !FILTERED || sc.shown.memory {
             p.bits(
                 &sc.memory,
                 "port_busy",
@@ -417,7 +429,7 @@ impl Machine<'_> {
             p.bits(&sc.memory, "in_flight", 16, self.memory.inflight() as u64);
             p.bits(&sc.memory, "grants", 32, self.memory.stats.grants);
         }
-        if sc.shown.arbiter {
+        if !FILTERED || sc.shown.arbiter {
             p.bits(
                 &sc.arbiter,
                 "last_grant",
@@ -425,8 +437,8 @@ impl Machine<'_> {
                 self.memory.last_grant.min(0xFFFF) as u64,
             );
         }
-        self.links.probe(p, Section::Arbiter);
-        if self.cfg.balance.enabled && sc.shown.balancer {
+        self.links.probe::<S, FILTERED>(p, Section::Arbiter);
+        if self.cfg.balance.enabled && (!FILTERED || sc.shown.balancer) {
             p.bits(
                 &sc.balancer,
                 "split_orders",
@@ -444,7 +456,7 @@ impl Machine<'_> {
         // The scopes are looked up without an index (a filler uses none of them, and then
         // nothing is left of the lookups); `Scopes::new` made one per unit.
         for (c, (cl, cs)) in self.clusters.iter().zip(&sc.clusters).enumerate() {
-            if self.cfg.balance.enabled && cs.shown.balance {
+            if self.cfg.balance.enabled && (!FILTERED || cs.shown.balance) {
                 p.bits(
                     &cs.balance,
                     "work_request",
@@ -459,15 +471,15 @@ impl Machine<'_> {
                 );
             }
             if self.cfg.balance.enabled {
-                self.links.probe(p, Section::Balance(c));
+                self.links.probe::<S, FILTERED>(p, Section::Balance(c));
             }
-            if cs.shown.patch_buffer {
+            if !FILTERED || cs.shown.patch_buffer {
                 probe_link(p, &cs.patch_buffer, &cl.patch_buffer.store);
             }
-            if cs.shown.ray_buffer {
+            if !FILTERED || cs.shown.ray_buffer {
                 probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
             }
-            if bundle && cs.shown.ray_buffer {
+            if bundle && (!FILTERED || cs.shown.ray_buffer) {
                 let rb = &cl.ray_buffer;
                 let (patch, left) = rb.expanding().unwrap_or((0, 0));
                 p.bits(&cs.ray_buffer, "descriptors", 16, rb.descriptors() as u64);
@@ -491,14 +503,15 @@ impl Machine<'_> {
                 }
             }
             if bundle {
-                self.links.probe(p, Section::BundleCluster(c));
+                self.links
+                    .probe::<S, FILTERED>(p, Section::BundleCluster(c));
             }
             for (j, (ctu, s)) in cl.ctus.iter().zip(&cs.ctus).enumerate() {
                 // A finished CTU never ticks again: its six signals are final; nor do they
                 // change in a cycle it did not tick actively.
                 let u = self.clusters.len() + c * cl.ctus.len() + j;
                 let ticked = ctu.take_ticked();
-                let shown = cs.shown.ctus.get(j).copied().unwrap_or(true);
+                let shown = !FILTERED || cs.shown.ctus.get(j).copied().unwrap_or(true);
                 if shown && !p.skip_quiet(u, ctu.is_finished(), 6) && !p.skip_unchanged(ticked, 6) {
                     p.text(s, "state", CtuState::NAMES, ctu.state.index());
                     p.bits(s, "shell", 16, ctu.shell() as u64);
@@ -507,18 +520,18 @@ impl Machine<'_> {
                     p.bits(s, "pending_loads", 16, ctu.pending_loads() as u64);
                     p.bits(s, "jobs_issued", 32, ctu.stats.jobs_issued);
                 }
-                self.links.probe(p, Section::Ctu(c, j));
+                self.links.probe::<S, FILTERED>(p, Section::Ctu(c, j));
                 if bundle {
                     if shown {
                         p.bits(s, "descriptors", 32, ctu.stats.descriptors);
                     }
-                    self.links.probe(p, Section::BundleCtu(c, j));
+                    self.links.probe::<S, FILTERED>(p, Section::BundleCtu(c, j));
                 }
             }
-            if cs.shown.icu {
+            if !FILTERED || cs.shown.icu {
                 p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
             }
-            if !cs.shown.stages {
+            if FILTERED && !cs.shown.stages {
                 continue;
             }
             // Four signals a stage (the count `skip_quiet` is told), all zero when empty; the
@@ -583,8 +596,10 @@ pub(super) struct Scopes {
     balancer: String,
     arbiter: String,
     clusters: Vec<ClusterScopes>,
-    /// Which of these the probe keeps ([`crate::trace::Probe::wants`]).
+    /// Which of these the probe keeps ([`crate::trace::Probe::wants`]), and whether it
+    /// keeps them all.
     shown: Shown,
+    all_shown: bool,
     /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
     signals: usize,
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
@@ -630,11 +645,12 @@ struct ClusterScopes {
 impl Scopes {
     /// The scopes of `m`'s units, each shown when `wants` it.
     fn new(m: &Machine, wants: &dyn Fn(&str) -> bool) -> Self {
+        let links_all_shown = m.links.all_shown();
         let k = m.cfg.machine.ctus_per_cluster as usize;
         let memory = "machine.memory";
         let balancer = "machine.balancer";
         let arbiter = "machine.memory.arbiter";
-        Scopes {
+        let mut sc = Scopes {
             shown: Shown {
                 memory: wants(memory),
                 balancer: wants(balancer),
@@ -672,11 +688,31 @@ impl Scopes {
                     }
                 })
                 .collect(),
+            all_shown: false,
             signals: 0,
             quiet: Vec::new(),
             ring: Vec::new(),
             filled: false,
-        }
+        };
+        let Shown {
+            memory,
+            balancer,
+            arbiter,
+        } = sc.shown;
+        sc.all_shown = memory
+            && balancer
+            && arbiter
+            && sc.clusters.iter().all(|c| {
+                let s = &c.shown;
+                s.balance
+                    && s.patch_buffer
+                    && s.ray_buffer
+                    && s.icu
+                    && s.stages
+                    && s.ctus.iter().all(|&x| x)
+            })
+            && links_all_shown;
+        sc
     }
 }
 
