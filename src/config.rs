@@ -5,7 +5,7 @@
 //!
 //! A NAME is resolved when the program runs, in this order: `hw/configs/NAME.toml` under
 //! the current directory, then `$SHELLSIM_CONFIG_DIR/NAME.toml`, then the configurations
-//! built into the binary ([`BUILT_IN`]: `paper`, `small`).
+//! built into the binary ([`BUILT_IN`]: `paper`, `small`, `balanced`).
 //!
 //! The defaults of everything the configuration holds (the partition's shell radius and
 //! subshell threshold among them) come from [`built_in`].
@@ -24,9 +24,10 @@ use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
 /// The configurations built into the binary, by name: hw/configs/NAME.toml at build time.
-pub const BUILT_IN: [(&str, &str); 2] = [
+pub const BUILT_IN: [(&str, &str); 3] = [
     ("paper", PAPER_TOML),
     ("small", include_str!("../hw/configs/small.toml")),
+    ("balanced", include_str!("../hw/configs/balanced.toml")),
 ];
 
 /// The environment variable naming a directory of NAME.toml configurations.

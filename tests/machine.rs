@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{assert_same_run, check_variant, config, run_variant, spec, Variant};
+use common::{assert_same_run, check_variant, config, run_variant, spec, Levers, Variant};
 use shellsim::machine::run::run;
 use shellsim_hw::config::{ArbiterPolicy, JobSource};
 use shellsim_hw::machine::TickOrder;
@@ -29,6 +29,7 @@ const fn cell(
         balance: None,
         job_source: JobSource::Ctu,
         overlap_joins: false,
+        levers: Levers::PAPER,
     }
 }
 
@@ -204,6 +205,7 @@ fn tick_order_changes_nothing(file: &str, balance: bool, order: TickOrder) {
         balance: Some(balance),
         job_source: JobSource::Ctu,
         overlap_joins: false,
+        levers: Levers::PAPER,
     };
     let fwd = run_variant(file, &v, TickOrder::Forward);
     if balance {
@@ -400,6 +402,55 @@ mod variants {
         bundle_overlap_stress_grazing_c4_k2_paper_step => "stress-grazing.json", 4, 2, RoundRobin, false, false, true, Bundle, true;
         bundle_overlap_stress_edges_c2_k4_small_jump => "stress-edges.json", 2, 4, RoundRobin, true, true, true, Bundle, true;
         bundle_overlap_stress_dense_c4_k2_paper_jump => "stress-dense.json", 4, 2, RoundRobin, false, true, true, Bundle, true;
+    }
+}
+
+/// Issue 36's levers (`scan_ids_per_cycle`, `descriptor_order`, `partition_granularity`)
+/// over cells that take every value of each, under both job sources and with joins
+/// overlapped or not, balancing on: equality with the untimed model and conservation
+/// (`check_variant`); where the lever changes the machine's timing, the cycles differ from
+/// the same cell without it.
+macro_rules! lever_cells {
+    ($($name:ident => $file:literal, $cn:literal, $kn:literal, $bn:literal, $jn:literal, $src:ident, $ov:literal, $scan:literal, $lf:literal, $ray:literal;)*) => {$(
+        #[test]
+        fn $name() {
+            let plain = Variant {
+                balance: Some(true),
+                ..cell($cn, $kn, ArbiterPolicy::RoundRobin, $bn, $jn)
+            }
+            .with(JobSource::$src, $ov);
+            let v = Variant {
+                levers: Levers {
+                    scan_ids_per_cycle: $scan,
+                    largest_first: $lf,
+                    ray_cuts: $ray,
+                },
+                ..plain
+            };
+            let out = check_variant($file, &v);
+            let base = run_variant($file, &plain, TickOrder::Forward);
+            assert_ne!(out.stats.cycles, base.stats.cycles, "{}: the levers changed no cycle", v.repro($file));
+            // Every id is looked at once per visit of its cell, at most scan_ids_per_cycle a cycle.
+            for c in out.stats.clusters.iter().flat_map(|c| &c.ctus) {
+                let scanning = c.state_cycles.scan + c.state_cycles.request;
+                assert!(scanning * $scan >= c.ids_scanned, "{}: {c:?}", v.repro($file));
+            }
+        }
+    )*};
+}
+
+mod levers {
+    use super::*;
+    lever_cells! {
+        scan2_scene1_c2_k2_ctu => "scene1.json", 2, 2, false, true, Ctu, false, 2, false, false;
+        scan4_cornell_c4_k2_bundle_overlap => "cornell.json", 4, 2, true, false, Bundle, true, 4, false, false;
+        scan3_scene2_c8_k2_ctu_overlap => "scene2.json", 8, 2, false, true, Ctu, true, 3, false, false;
+        largest_cornell_c4_k4_bundle => "cornell.json", 4, 4, false, true, Bundle, false, 1, true, false;
+        largest_scene2_c8_k2_bundle_overlap => "scene2.json", 8, 2, false, true, Bundle, true, 2, true, false;
+        ray_cuts_scene2_c4_k2_ctu => "scene2.json", 4, 2, false, false, Ctu, false, 1, false, true;
+        ray_cuts_stress_skewed_c8_k2_bundle_overlap => "stress-skewed.json", 8, 2, false, true, Bundle, true, 1, false, true;
+        all_stress_edges_c2_k4_bundle_overlap => "stress-edges.json", 2, 4, true, true, Bundle, true, 8, true, true;
+        all_cornell_c1_k1_ctu => "cornell.json", 1, 1, false, false, Ctu, false, 64, true, true;
     }
 }
 

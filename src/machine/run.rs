@@ -109,6 +109,7 @@ pub fn prepare(
     pcfg.shell_radius = m.shell_radius.value();
     pcfg.subshell_max = m.subshell_max_patches as usize;
     pcfg.cell_size = cell;
+    pcfg.granularity = m.partition_granularity.into();
     pcfg.validate(scene, file)
         .map_err(|e| config_param(e, file))?;
     let part = partition::partition(scene, &tracer, &pcfg);

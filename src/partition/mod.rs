@@ -63,6 +63,15 @@ pub enum Granularity {
     Ray,
 }
 
+impl From<shellsim_hw::config::PartitionGranularity> for Granularity {
+    fn from(g: shellsim_hw::config::PartitionGranularity) -> Self {
+        match g {
+            shellsim_hw::config::PartitionGranularity::Subregion => Granularity::Subregion,
+            shellsim_hw::config::PartitionGranularity::Ray => Granularity::Ray,
+        }
+    }
+}
+
 /// Everything a partition depends on besides the scene.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Config {

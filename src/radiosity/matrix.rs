@@ -435,6 +435,7 @@ pub fn run_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<RowRun> {
             pcfg.shell_radius = sh.shell_radius;
             pcfg.subshell_max = m.subshell_max_patches as usize;
             pcfg.cell_size = sh.cell;
+            pcfg.granularity = m.partition_granularity.into();
             pcfg.seed = spec.seed;
             pcfg.validate(sh.scene, sh.file)?;
             let sectors = partition::sectors_for(sh.scene, &sh.tracer, &pcfg, &set);

@@ -5,7 +5,9 @@
 
 use shellsim::machine::run::{run, RunOutput, RunSpec};
 use shellsim::scene::Scene;
-use shellsim_hw::config::{ArbiterPolicy, JobSource, MachineConfig};
+use shellsim_hw::config::{
+    ArbiterPolicy, DescriptorOrder, JobSource, MachineConfig, PartitionGranularity,
+};
 use shellsim_hw::machine::TickOrder;
 use std::path::{Path, PathBuf};
 
@@ -74,6 +76,26 @@ pub struct Variant {
     /// Where jobs are made, and overlapped joins (issue 14's machine variants).
     pub job_source: JobSource,
     pub overlap_joins: bool,
+    /// Issue 36's levers.
+    pub levers: Levers,
+}
+
+/// Issue 36's machine options: ids scanned per cycle, the bundle buffer's descriptor order,
+/// the partitioner's cuts.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Levers {
+    pub scan_ids_per_cycle: u32,
+    pub largest_first: bool,
+    pub ray_cuts: bool,
+}
+
+impl Levers {
+    /// paper.toml's: one id per cycle, FIFO, cuts at subregion boundaries.
+    pub const PAPER: Levers = Levers {
+        scan_ids_per_cycle: 1,
+        largest_first: false,
+        ray_cuts: false,
+    };
 }
 
 impl Variant {
@@ -87,6 +109,7 @@ impl Variant {
         balance: None,
         job_source: JobSource::Ctu,
         overlap_joins: false,
+        levers: Levers::PAPER,
     };
 
     /// The same cell with jobs made at `source`, joins overlapped or not.
@@ -110,13 +133,21 @@ impl Variant {
         }
         c.machine.job_source = self.job_source;
         c.machine.overlap_joins = self.overlap_joins;
+        let l = &self.levers;
+        c.machine.scan_ids_per_cycle = l.scan_ids_per_cycle;
+        if l.largest_first {
+            c.machine.descriptor_order = DescriptorOrder::LargestFirst;
+        }
+        if l.ray_cuts {
+            c.machine.partition_granularity = PartitionGranularity::Ray;
+        }
         c
     }
 
     /// The command that reproduces a failure of this variant.
     pub fn repro(&self, file: &str) -> String {
         format!(
-            "reproduce: shellsim run --scene scenes/{file} --ratio 1 --hw hw/configs/{}.toml with clusters={} ctus_per_cluster={} arbiter={:?} cycle_jump={} balance={:?} job_source={} overlap_joins={}",
+            "reproduce: shellsim run --scene scenes/{file} --ratio 1 --hw hw/configs/{}.toml with clusters={} ctus_per_cluster={} arbiter={:?} cycle_jump={} balance={:?} job_source={} overlap_joins={} {:?}",
             if self.small_buffers { "small" } else { "paper" },
             self.clusters,
             self.ctus,
@@ -124,7 +155,8 @@ impl Variant {
             self.jump,
             self.balance,
             self.job_source.name(),
-            self.overlap_joins
+            self.overlap_joins,
+            self.levers
         )
     }
 }

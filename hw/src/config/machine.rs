@@ -43,8 +43,67 @@ impl JobSource {
     }
 }
 
+/// The order in which a bundle ray buffer expands its descriptors.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum DescriptorOrder {
+    /// In arrival order.
+    #[default]
+    Fifo,
+    /// The descriptor with the most jobs left first (ties in arrival order): the sector with
+    /// the most remaining rays — the longest serial chain of joins — is served first.
+    LargestFirst,
+}
+
+impl DescriptorOrder {
+    /// The name in configuration files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            DescriptorOrder::Fifo => "fifo",
+            DescriptorOrder::LargestFirst => "largest-first",
+        }
+    }
+
+    fn is_fifo(&self) -> bool {
+        *self == DescriptorOrder::Fifo
+    }
+}
+
+/// Where the host's partitioner may cut sections and sectors (its `--granularity`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum PartitionGranularity {
+    /// Only at subregion boundaries (the paper's 25 low-resolution sectors).
+    #[default]
+    Subregion,
+    /// Between any two low-resolution ray directions: sectors closer to equal work.
+    Ray,
+}
+
+impl PartitionGranularity {
+    /// The name in configuration files and reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            PartitionGranularity::Subregion => "subregion",
+            PartitionGranularity::Ray => "ray",
+        }
+    }
+
+    fn is_subregion(&self) -> bool {
+        *self == PartitionGranularity::Subregion
+    }
+}
+
 fn is_false(b: &bool) -> bool {
     !*b
+}
+
+fn one() -> u32 {
+    1
+}
+
+fn is_one(v: &u32) -> bool {
+    *v == 1
 }
 
 /// A length in scene units, or `"auto"`: derived from the scene by the host's stated rule
@@ -157,6 +216,20 @@ pub struct MachineTable {
     /// key is absent (written only when `true`).
     #[serde(default, skip_serializing_if = "is_false")]
     pub overlap_joins: bool,
+    /// Patch ids of a cell a CTU compares against its loaded set per cycle (the paper's
+    /// machine: 1). At most one of them goes out as a request per cycle. `1` when the key is
+    /// absent (written only when not 1).
+    #[serde(default = "one", skip_serializing_if = "is_one")]
+    pub scan_ids_per_cycle: u32,
+    /// The order a bundle ray buffer expands its descriptors in (`fifo` when the key is
+    /// absent; written only when not `fifo`; `job_source = "ctu"` ignores it).
+    #[serde(default, skip_serializing_if = "DescriptorOrder::is_fifo")]
+    pub descriptor_order: DescriptorOrder,
+    /// Where the host's partitioner cuts sections and sectors (`subregion`, the paper's,
+    /// when the key is absent; written only when not `subregion`). The machine itself only
+    /// sees the sectors it is handed.
+    #[serde(default, skip_serializing_if = "PartitionGranularity::is_subregion")]
+    pub partition_granularity: PartitionGranularity,
 }
 
 /// Which busy cluster the balancer asks for work.
@@ -212,6 +285,7 @@ impl MachineTable {
             1000,
         )?;
         range("memory_latency", self.memory_latency as u64, 0, 100_000)?;
+        range("scan_ids_per_cycle", self.scan_ids_per_cycle as u64, 1, 64)?;
         range(
             "ray_buffer_capacity",
             self.ray_buffer_capacity as u64,

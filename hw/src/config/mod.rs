@@ -7,7 +7,10 @@ pub mod machine;
 
 pub use crate::datapath::format::{Fault, Formats};
 pub use datapath::{DatapathConfig, HardwareCost};
-pub use machine::{ArbiterPolicy, BalanceTable, JobSource, Length, MachineTable, VictimPolicy};
+pub use machine::{
+    ArbiterPolicy, BalanceTable, DescriptorOrder, JobSource, Length, MachineTable,
+    PartitionGranularity, VictimPolicy,
+};
 
 use serde::{Deserialize, Serialize};
 

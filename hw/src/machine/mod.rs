@@ -21,7 +21,7 @@ mod watchdog;
 pub use links::Links;
 pub use watchdog::Deadlock;
 
-use crate::config::{JobSource, MachineConfig};
+use crate::config::{DescriptorOrder, JobSource, MachineConfig};
 use crate::datapath::model::FixedScene;
 use crate::datapath::record::{RayRecord, RecordSizes};
 use crate::datapath::{Exceptions, FixedHit};
@@ -139,6 +139,7 @@ impl<'a> Machine<'a> {
                             t_max: f.t.max_raw() as i64,
                             bundle,
                             overlap: cfg.machine.overlap_joins,
+                            scan_ids_per_cycle: cfg.machine.scan_ids_per_cycle,
                         };
                         Ctu::new(p, r, rays, &scene.cells, scene.patches.len())
                             .skipping(scene.twins_of(Some(source)))
@@ -148,7 +149,10 @@ impl<'a> Machine<'a> {
                     ctus,
                     Icu::new(cfg.divider_stages()),
                     if bundle {
-                        RayBuffer::bundle(cfg.machine.ray_buffer_capacity)
+                        RayBuffer::bundle(
+                            cfg.machine.ray_buffer_capacity,
+                            cfg.machine.descriptor_order == DescriptorOrder::LargestFirst,
+                        )
                     } else {
                         RayBuffer::new(cfg.machine.ray_buffer_capacity, k + 1)
                     },

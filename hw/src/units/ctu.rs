@@ -12,9 +12,11 @@
 //! Traversal FSM:
 //! - `Idle` → `ShellStart` on the first cycle.
 //! - `ShellStart`: the shell's outer radius; the first remaining ray → `Scan`.
-//! - `Scan`: looks at one patch id of the current cell per cycle; an id not yet loaded
-//!   (and not the source) goes out as a request (`Request` when the request link is full).
-//!   When the cell is done: a subshell join if this subshell has loaded its quota, else `Step`.
+//! - `Scan`: looks at `scan_ids_per_cycle` patch ids of the current cell per cycle (the
+//!   paper's machine: one); the first id not yet loaded (and not the source) goes out as a
+//!   request, at most one per cycle (`Request` when the request link is full). When the cell
+//!   is done — in the cycle after its last id, or in that cycle if it had ids to spare: a
+//!   subshell join if this subshell has loaded its quota, else `Step`.
 //! - `Step`: one DDA step (dda_cycles_per_step cycles). The next cell is scanned if it is
 //!   entered inside the shell; otherwise the next ray's turn comes; after the last ray,
 //!   `Join` ends the shell.
@@ -114,6 +116,9 @@ pub struct CtuStats {
     pub join_wait_results: u64,
     /// Descriptors handed to the ray buffer (bundle only; their jobs are in `jobs_issued`).
     pub descriptors: u64,
+    /// Patch ids the scan looked at (loaded or not, the source's too): at most
+    /// `scan_ids_per_cycle` per SCAN cycle.
+    pub ids_scanned: u64,
 }
 
 /// Cycles per traversal state, one field per [`CtuState`].
@@ -176,6 +181,8 @@ pub struct CtuParams {
     pub bundle: bool,
     /// `overlap_joins`: traverse the next subshell while the current one drains.
     pub overlap: bool,
+    /// Patch ids the scan compares against the loaded set per cycle (at most one request).
+    pub scan_ids_per_cycle: u32,
 }
 
 /// The links a CTU drives or reads.
@@ -600,13 +607,18 @@ impl Ctu {
                 let slot = self.remaining[self.cursor] as usize;
                 let dda = self.slots[slot].dda.expect("a scanned ray is in the grid");
                 let list = cells.patches_in(cells.index(dda.c));
-                if self.cell_pos < list.len() {
+                // Up to `scan_ids_per_cycle` ids against the loaded set, in cell order; the
+                // first one not loaded goes out as this cycle's one request, a second one
+                // waits for the next cycle.
+                let k = self.p.scan_ids_per_cycle as usize;
+                let mut looked = 0;
+                let mut requested = false;
+                while looked < k && self.cell_pos < list.len() {
                     let id = list[self.cell_pos];
-                    if id == self.p.source || self.loaded[id as usize] {
-                        self.cell_pos += 1;
-                        self.state = CtuState::Scan;
-                        busy = true;
-                    } else if io.requests.can_push() {
+                    if id != self.p.source && !self.loaded[id as usize] {
+                        if requested || !io.requests.can_push() {
+                            break;
+                        }
                         io.requests.push(
                             me,
                             MemRequest {
@@ -616,6 +628,7 @@ impl Ctu {
                                 issued: now,
                             },
                         );
+                        requested = true;
                         self.loaded.set(id as usize, true);
                         self.pending_loads += 1;
                         if self.p.overlap {
@@ -625,12 +638,19 @@ impl Ctu {
                         }
                         self.subshell_loads += 1;
                         self.stats.patch_requests += 1;
-                        self.cell_pos += 1;
-                        self.state = CtuState::Scan;
-                        busy = true;
-                    } else {
+                    }
+                    self.cell_pos += 1;
+                    looked += 1;
+                }
+                self.stats.ids_scanned += looked as u64;
+                if self.cell_pos < list.len() || looked == k {
+                    // Ids left (or the cycle's ids used up): the cell ends in a later cycle.
+                    if looked == 0 {
                         self.state = CtuState::Request;
                         stalled = true;
+                    } else {
+                        self.state = CtuState::Scan;
+                        busy = true;
                     }
                 } else if self.subshell_loads >= self.p.subshell_max_patches {
                     // Subshell full: join before stepping on (the cell is done).
@@ -895,6 +915,7 @@ mod tests {
             t_max: f.t.max_raw() as i64,
             bundle: false,
             overlap: false,
+            scan_ids_per_cycle: 1,
         }
     }
 
@@ -1067,5 +1088,32 @@ mod tests {
         assert!(ctu.stats.subshells >= 2, "{:?}", ctu.stats);
         let joins = states.iter().filter(|&&s| s == "JOIN").count();
         assert!(joins >= 2, "{states:?}");
+    }
+
+    #[test]
+    fn a_wider_scan_looks_at_the_same_ids_in_fewer_cycles() {
+        // Cell 2 holds the source and patch 1 (already loaded): one cycle for both at 2 ids
+        // per cycle, and a cell whose ids fit the cycle ends in that cycle.
+        let (one, _, asked1, issued1) = run(params(64));
+        let (two, _, asked2, issued2) = run(CtuParams {
+            scan_ids_per_cycle: 2,
+            ..params(64)
+        });
+        assert!(two.done());
+        assert_eq!(asked2, asked1);
+        let sorted = |mut v: Vec<(u32, u32)>| {
+            v.sort();
+            v
+        };
+        assert_eq!(sorted(issued2), sorted(issued1));
+        let (s1, s2) = (&one.stats, &two.stats);
+        assert_eq!(s2.ids_scanned, s1.ids_scanned);
+        assert_eq!(s2.dda_steps, s1.dda_steps);
+        // At 1 id per cycle, a cycle per id and one to end each cell (stalls on top) …
+        let scanning = |s: &CtuStats| s.state_cycles.scan + s.state_cycles.request;
+        assert!(scanning(s1) >= s1.ids_scanned + s1.dda_steps, "{s1:?}");
+        // … at 2, ⌊ids of the cell / 2⌋ + 1 per cell: fewer, never below ids / 2.
+        assert!(scanning(s2) < scanning(s1), "{s1:?}\n{s2:?}");
+        assert!(2 * scanning(s2) >= s2.ids_scanned, "{s2:?}");
     }
 }

@@ -38,6 +38,8 @@ pub struct RayBuffer {
     /// Descriptors waiting to be expanded (bundle only), at most `desc_capacity`.
     descs: VecDeque<Descriptor>,
     desc_capacity: usize,
+    /// Bundle: expand the descriptor with the most jobs left first (`largest-first`).
+    largest_first: bool,
     /// Jobs the descriptors stand for, now and at the last edge (what others may read).
     desc_jobs: u64,
     desc_jobs_registered: u64,
@@ -74,17 +76,20 @@ impl RayBuffer {
             next: 0,
             descs: VecDeque::new(),
             desc_capacity: 0,
+            largest_first: false,
             desc_jobs: 0,
             desc_jobs_registered: 0,
             stats: RayBufferStats::default(),
         }
     }
 
-    /// A bundle buffer: `capacity` descriptors, a two-job queue before the ICU.
-    pub fn bundle(capacity: u32) -> Self {
+    /// A bundle buffer: `capacity` descriptors, a two-job queue before the ICU; with
+    /// `largest_first`, the descriptor with the most jobs left is expanded first.
+    pub fn bundle(capacity: u32, largest_first: bool) -> Self {
         RayBuffer {
             descs: VecDeque::with_capacity(capacity as usize),
             desc_capacity: capacity as usize,
+            largest_first,
             ..RayBuffer::new(2, 1)
         }
     }
@@ -197,7 +202,13 @@ impl RayBuffer {
             if link.peek().is_some() {
                 let d = link.pop(me);
                 self.desc_jobs += d.jobs() as u64;
-                self.descs.push_back(d);
+                if self.largest_first {
+                    // Before the first one with fewer jobs left (ties in arrival order).
+                    let at = self.descs.iter().position(|w| w.jobs() < d.jobs());
+                    self.descs.insert(at.unwrap_or(self.descs.len()), d);
+                } else {
+                    self.descs.push_back(d);
+                }
                 self.stats.descriptors_in += 1;
                 self.next = if i + 1 == n { 0 } else { i + 1 };
             }
@@ -418,7 +429,7 @@ mod tests {
     #[test]
     fn a_bundle_buffer_expands_descriptors_in_order_and_splits_the_last_one() {
         let pool = vec![RayList::new(&[100, 101, 102, 103, 104, 105])];
-        let mut b = RayBuffer::bundle(4);
+        let mut b = RayBuffer::bundle(4, false);
         let mut inputs = vec![Link::new(2)];
         let mut net = Link::new(2);
         let mut orders = Link::new(1);
