@@ -12,6 +12,7 @@
 //! an experiment with a mismatch is an error, not a data point).
 //! **Invariant:** `Bound::cycles() <= cycles` for every run (tested).
 
+pub mod levers;
 pub mod outputs;
 pub mod report;
 
