@@ -10,8 +10,9 @@ use std::path::PathBuf;
 pub enum SignalKind {
     /// An unsigned value.
     Bits,
-    /// A string: an FSM state name.
-    Text,
+    /// A string: an FSM state name, one of `states` names (a VCD string; in an FST the
+    /// state's index in [`state_bits`] bits, named by an enum table).
+    Text { states: u32 },
     /// Raw signed fixed point with `frac` fractional bits.
     Fixed { frac: u32 },
 }
@@ -35,8 +36,14 @@ impl Signal {
 
     /// True when declared as a vector (`wire` wider than one bit, with a `[w-1:0]` range).
     pub fn is_vector(&self) -> bool {
-        self.kind != SignalKind::Text && self.width > 1
+        !matches!(self.kind, SignalKind::Text { .. }) && self.width > 1
     }
+}
+
+/// The bits an FSM state of `states` names takes in an FST: room for every index and one
+/// more, the enum table's "-" (any other value); at least one.
+pub fn state_bits(states: u32) -> u32 {
+    (u32::BITS - states.leading_zeros()).max(1)
 }
 
 /// What a finished waveform (VCD or FST) holds.
