@@ -782,7 +782,9 @@ fn the_cli_writes_the_gtkw_beside_the_vcd() {
 /// Opens the save file in a real GTKWave (needs `gtkwave` and `xvfb-run`, e.g. Debian's
 /// packages of those names): every trace is found, formats as written, and the fixed-point
 /// t shows as a decimal. `.ci/run` installs both, and in CI (CI set) their absence fails
-/// the test; on a developer's machine without them it says so and passes.
+/// the test; on a developer's machine without them it says so and passes. The same for an
+/// FST's save file, whose fixed-point values carry their binary point in the range
+/// (`t[2:-12]`) and whose overview shows the CTUs' states by the names of their enum table.
 #[test]
 fn gtkwave_opens_the_save_file_with_every_signal() {
     let have = |tool: &str| {
@@ -800,16 +802,44 @@ fn gtkwave_opens_the_save_file_with_every_signal() {
         return;
     }
     let f = full();
+    gtkwave_lists(&f.gtkw, f.wave.vars.len(), None);
+    let dir = tempfile::tempdir().unwrap();
+    let opts = WaveOptions {
+        window: Window { from: 0, to: 400 },
+        ..WaveOptions::default()
+    };
+    let (_, fst, g) = run(dir.path(), "g.fst", opts);
+    let text = std::fs::read_to_string(&g).unwrap();
+    assert!(text.contains("@100000028\n+{c0 ctu0 state} machine.cluster_0.ctu_0.state[2:0]\n"));
+    assert!(text.contains("\nmachine.cluster_0.icu.stage_0.t[2:-12]\n"));
+    let values = gtkwave_lists(&g, fst.signals.len(), Some(100));
+    let names = shellsim_hw::units::ctu::CtuState::NAMES;
+    let states: Vec<&String> = values
+        .iter()
+        .filter(|(name, _)| name.starts_with("c0 ctu") && name.ends_with(" state"))
+        .map(|(_, v)| v)
+        .collect();
+    assert!(!states.is_empty());
+    for v in states {
+        assert!(names.contains(&v.as_str()), "a state shown as {v:?}");
+    }
+}
+
+/// GTKWave's traces after loading the save file `gtkw` (of a waveform of `vars`
+/// variables): asserts each signal was found, and returns each trace's name and its value
+/// at the marker set at `marker` (empty where GTKWave computes none, as in closed groups).
+fn gtkwave_lists(gtkw: &Path, vars: usize, marker: Option<u64>) -> Vec<(String, String)> {
     let dir = tempfile::tempdir().unwrap();
     let script = dir.path().join("list.tcl");
     let listing = dir.path().join("traces.txt");
+    let set = marker.map_or(String::new(), |m| format!("gtkwave::setMarker {m}\n"));
     std::fs::write(
         &script,
         format!(
-            "set f [open {{{}}} w]\n\
+            "{set}set f [open {{{}}} w]\n\
              set n [gtkwave::getTotalNumTraces]\n\
              for {{set i 0}} {{$i < $n}} {{incr i}} {{\n\
-             puts $f \"[gtkwave::getTraceNameFromIndex $i] [format %x [gtkwave::getTraceFlagsFromIndex $i]]\"\n\
+             puts $f \"[gtkwave::getTraceNameFromIndex $i]\\t[format %x [gtkwave::getTraceFlagsFromIndex $i]]\\t[gtkwave::getTraceValueAtMarkerFromIndex $i]\"\n\
              }}\n\
              close $f\n\
              gtkwave::/File/Quit\n",
@@ -820,7 +850,7 @@ fn gtkwave_opens_the_save_file_with_every_signal() {
     let st = std::process::Command::new("xvfb-run")
         .args(["-a", "gtkwave", "-S"])
         .arg(&script)
-        .arg(&f.gtkw)
+        .arg(gtkw)
         .output()
         .expect("xvfb-run and gtkwave installed");
     assert!(
@@ -829,26 +859,27 @@ fn gtkwave_opens_the_save_file_with_every_signal() {
         String::from_utf8_lossy(&st.stderr)
     );
     let text = std::fs::read_to_string(&listing).unwrap();
-    let traces: Vec<&str> = text.lines().collect();
+    let traces: Vec<Vec<&str>> = text.lines().map(|l| l.split('\t').collect()).collect();
     let groups = traces
         .iter()
-        .filter(|l| {
-            l.rsplit_once(' ')
-                .and_then(|(_, h)| u64::from_str_radix(h, 16).ok())
-                .is_some_and(|fl| fl & gtkw::TR_GRP_BEGIN != 0)
-        })
+        .filter(|t| u64::from_str_radix(t[1], 16).is_ok_and(|fl| fl & gtkw::TR_GRP_BEGIN != 0))
         .count();
     // The overview's traces repeat signals of the unit groups.
-    let overview = std::fs::read_to_string(&f.gtkw)
+    let overview = std::fs::read_to_string(gtkw)
         .unwrap()
         .lines()
         .filter(|l| l.starts_with("+{"))
         .count();
     assert_eq!(
         traces.len(),
-        f.wave.vars.len() + overview + 2 * groups,
-        "a signal was not found"
+        vars + overview + 2 * groups,
+        "{}: a signal was not found",
+        gtkw.display()
     );
+    traces
+        .iter()
+        .map(|t| (t[0].to_string(), t.get(2).unwrap_or(&"").to_string()))
+        .collect()
 }
 
 /// Every variable's `(time, value)` changes from a VCD's text, by full dotted name: vectors
@@ -1375,5 +1406,46 @@ fn the_sucl_beside_every_gtkw_adds_the_overview_in_surfers_commands() {
             .collect();
         assert!(!overview.is_empty());
         assert_eq!(added, overview, "{file}");
+    }
+}
+
+/// An FST declares each fixed-point value with its binary point in its range (`t[2:-12]`
+/// for 15 bits with 12 fractional), which wellen reads as the variable's index, so Surfer
+/// scales the value by 2^lsb; the VCD keeps `[w-1:0]` (its header unchanged).
+#[test]
+fn an_fsts_fixed_point_values_carry_their_binary_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = WaveOptions {
+        window: Window { from: 0, to: 300 },
+        ..WaveOptions::default()
+    };
+    let frac = small().datapath.formats().unwrap().t.frac_bits as i64;
+    for file in ["b.fst", "b.vcd"] {
+        let (_, summary, _) = run(dir.path(), file, opts.clone());
+        let w = wellen::simple::read(&summary.path).unwrap();
+        let h = w.hierarchy();
+        let mut fixed = 0;
+        for s in &summary.signals {
+            let shellsim::wave::SignalKind::Fixed { frac: f } = s.kind else {
+                continue;
+            };
+            let var = h
+                .all_vars()
+                .map(|r| &h[r])
+                .find(|x| x.full_name(h) == s.full_name())
+                .unwrap();
+            let idx = var.index().expect("a vector has a range");
+            let want = if file.ends_with("fst") {
+                (s.width as i64 - 1 - f as i64, -(f as i64))
+            } else {
+                (s.width as i64 - 1, 0)
+            };
+            assert_eq!((idx.msb(), idx.lsb()), want, "{}", s.full_name());
+            if s.name == "t" {
+                assert_eq!(f as i64, frac);
+            }
+            fixed += 1;
+        }
+        assert!(fixed > 0, "no fixed-point signal in {file}");
     }
 }

@@ -1,6 +1,8 @@
 //! The FST format (GTKWave's compressed format): the header and the value changes of a
 //! `.fst` path, on the patched `fst-writer` crate (vendor/fst-writer).
 //!
+//! A fixed-point value is declared with its binary point in the name's range (`t[2:-12]`,
+//! as GTKWave and wellen read an FST variable's range from its name), so Surfer scales it.
 //! An FSM state (a text signal) is a small integer, its state's index — as wide as its
 //! [`state_bits`] — declared with an FST enum table that names each value (the VCD's
 //! strings, then "-" for any other value): GTKWave (through the .gtkw's `TR_ENUM`) and
@@ -286,7 +288,13 @@ fn declare<W: Write + io::Seek>(
                     let table = enum_table(h, s, &mut decl.tables)?;
                     h.var_with_enum(&s.sig.name, tpe, wire, dir, table)?
                 }
-                _ => h.var(&s.sig.name, tpe, wire, dir, None)?,
+                _ => match s.sig.fixed_range() {
+                    Some((msb, lsb)) if s.sig.width > 1 => {
+                        let name = format!("{}[{msb}:{lsb}]", s.sig.name);
+                        h.var(name, tpe, wire, dir, None)?
+                    }
+                    _ => h.var(&s.sig.name, tpe, wire, dir, None)?,
+                },
             };
             decl.ids[i] = Some(id);
             decl.order.push(i);

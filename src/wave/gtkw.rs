@@ -73,11 +73,16 @@ pub fn trace_name(s: &Signal) -> String {
 }
 
 /// The name GTKWave gives `s` in a waveform of `format`: as in the VCD, except that an FST
-/// holds an FSM state as its index, a vector of [`state_bits`] (`name[2:0]`).
+/// holds an FSM state as its index, a vector of [`state_bits`] (`name[2:0]`), and declares a
+/// fixed-point value with its binary point (`t[2:-12]`, `Signal::fixed_range`).
 pub fn trace_name_in(s: &Signal, format: WaveFormat) -> String {
     match (s.kind, format) {
         (SignalKind::Text { states }, WaveFormat::Fst) if state_bits(states) > 1 => {
             format!("{}[{}:0]", s.full_name(), state_bits(states) - 1)
+        }
+        (SignalKind::Fixed { .. }, WaveFormat::Fst) if s.width > 1 => {
+            let (msb, lsb) = s.fixed_range().expect("a fixed-point signal");
+            format!("{}[{msb}:{lsb}]", s.full_name())
         }
         _ if s.is_vector() => format!("{}[{}:0]", s.full_name(), s.width - 1),
         _ => s.full_name(),
@@ -428,6 +433,21 @@ machine.cluster_0.icu.stage_3.t[14:0]
             .map(|l| format!("{l}\n"))
             .collect();
         assert_eq!(body, want);
+    }
+
+    #[test]
+    fn an_fst_names_states_and_fixed_point_values_by_their_fst_ranges() {
+        let state = sig("m.ctu_0", "state", 1, SignalKind::Text { states: 7 });
+        let t = sig("m.icu", "t", 15, SignalKind::Fixed { frac: 12 });
+        assert_eq!(trace_name_in(&state, WaveFormat::Fst), "m.ctu_0.state[2:0]");
+        assert_eq!(trace_name_in(&state, WaveFormat::Vcd), "m.ctu_0.state");
+        assert_eq!(trace_name_in(&t, WaveFormat::Fst), "m.icu.t[2:-12]");
+        assert_eq!(trace_name_in(&t, WaveFormat::Vcd), "m.icu.t[14:0]");
+        assert_eq!(
+            format_in(&state, WaveFormat::Fst),
+            (TR_ENUM | TR_BIN | TR_RJUSTIFY, None)
+        );
+        assert_eq!(format_in(&state, WaveFormat::Vcd), (TR_RJUSTIFY, None));
     }
 
     #[test]

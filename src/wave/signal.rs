@@ -34,6 +34,18 @@ impl Signal {
         format!("{}.{}", self.scope, self.name)
     }
 
+    /// A fixed-point signal's range with its binary point, `(msb, lsb)` = `(w-1-frac, -frac)`
+    /// (`t[2:-12]` for 15 bits with 12 fractional): the FST declares it in the name, so a
+    /// viewer reading the range (Surfer, through wellen) scales the value. None for others.
+    pub fn fixed_range(&self) -> Option<(i64, i64)> {
+        match self.kind {
+            SignalKind::Fixed { frac } => {
+                Some((self.width as i64 - 1 - frac as i64, -(frac as i64)))
+            }
+            _ => None,
+        }
+    }
+
     /// True when declared as a vector (`wire` wider than one bit, with a `[w-1:0]` range).
     pub fn is_vector(&self) -> bool {
         !matches!(self.kind, SignalKind::Text { .. }) && self.width > 1
