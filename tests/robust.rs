@@ -717,7 +717,7 @@ fn a_vcd_scope_matching_nothing_is_an_error_not_an_empty_file() {
     // A pattern that matches writes the pair.
     let r = run_cornell(d.path(), &["--vcd", "w.vcd", "--vcd-scope", "icu"]);
     assert_eq!(r.code, Some(0), "{}", r.shown());
-    assert_eq!(names(d.path()), ["w.gtkw", "w.vcd"]);
+    assert_eq!(names(d.path()), ["w.gtkw", "w.sucl", "w.vcd"]);
 }
 
 #[test]
@@ -729,7 +729,7 @@ fn an_fst_pack_for_a_vcd_is_an_error_not_a_silently_ignored_flag() {
     // With an FST it writes the pair.
     let r = run_cornell(d.path(), &["--wave", "w.fst", "--fst-pack", "lz4"]);
     assert_eq!(r.code, Some(0), "{}", r.shown());
-    assert_eq!(names(d.path()), ["w.fst", "w.gtkw"]);
+    assert_eq!(names(d.path()), ["w.fst", "w.gtkw", "w.sucl"]);
 }
 
 #[test]

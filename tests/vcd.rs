@@ -9,7 +9,7 @@
 mod common;
 
 use shellsim::machine::run::{RunSpec, RunStats};
-use shellsim::wave::gtkw;
+use shellsim::wave::{gtkw, sucl};
 use shellsim::wave::{FstPack, ScopeFilter, WaveOptions, WaveSummary, WaveWriter, Window};
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::machine::TickOrder;
@@ -245,6 +245,7 @@ fn run(dir: &Path, file: &str, opts: WaveOptions) -> (RunStats, WaveSummary, Pat
     let summary = w.finish().unwrap();
     let g = gtkw::path_for(&path);
     gtkw::write(&g, &summary).unwrap();
+    sucl::write(&sucl::path_for(&path), &summary).unwrap();
     read_back(&summary);
     (out.stats, summary, g)
 }
@@ -264,24 +265,31 @@ fn read_back(summary: &WaveSummary) {
 }
 
 /// Every variable's `(time, value)` changes as wellen reads the file (VCD or FST), in
-/// [`changes_of`]'s form (an FST's initial all-x values left out, as the VCD has none).
+/// [`changes_of`]'s form (an FST's initial all-x values left out, as the VCD has none; an
+/// FST's FSM state, an integer, named through its enum table).
 fn wellen_changes(path: &Path) -> BTreeMap<String, Vec<(u64, String)>> {
     let mut w = wellen::simple::read(path)
         .unwrap_or_else(|e| panic!("wellen cannot read {}: {e}", path.display()));
     let h = w.hierarchy();
-    let vars: Vec<(String, u32, wellen::SignalRef)> = h
+    type Table = Option<BTreeMap<String, String>>;
+    let vars: Vec<(String, u32, wellen::SignalRef, Table)> = h
         .all_vars()
         .map(|r| {
             let v = &h[r];
             let width = v.length(h).unwrap_or(0);
-            (v.full_name(h), width, v.signal_ref())
+            let table = v.enum_type(h).map(|(_, m)| {
+                m.into_iter()
+                    .map(|(value, name)| (value.to_string(), name.to_string()))
+                    .collect()
+            });
+            (v.full_name(h), width, v.signal_ref(), table)
         })
         .collect();
     let refs: Vec<_> = vars.iter().map(|v| v.2).collect();
     w.load_signals(&refs);
     let times = w.time_table().to_vec();
     let mut out = BTreeMap::new();
-    for (name, width, r) in vars {
+    for (name, _, r, table) in vars {
         let sig = w.get_signal(r).expect("loaded");
         let mut ch = Vec::new();
         for (ti, v) in sig.iter_changes() {
@@ -292,7 +300,13 @@ fn wellen_changes(path: &Path) -> BTreeMap<String, Vec<(u64, String)>> {
                     if bits.chars().all(|c| c == 'x') {
                         continue;
                     }
-                    normalized(&bits, width)
+                    match &table {
+                        Some(t) => t
+                            .get(&bits)
+                            .unwrap_or_else(|| panic!("{name}: {bits} is not in its enum table"))
+                            .clone(),
+                        None => normalized(&bits),
+                    }
                 }
             };
             ch.push((times[ti as usize], v));
@@ -302,19 +316,8 @@ fn wellen_changes(path: &Path) -> BTreeMap<String, Vec<(u64, String)>> {
     out
 }
 
-/// A vector's bits as [`changes_of`] gives them: without leading zeros ("0" for zero), an
-/// FST's 128-bit ASCII text decoded.
-fn normalized(v: &str, w: u32) -> String {
-    if w == 128 {
-        let bits = format!("{:0>128}", v);
-        return bits
-            .as_bytes()
-            .chunks(8)
-            .map(|c| u8::from_str_radix(std::str::from_utf8(c).unwrap(), 2).unwrap_or(b'?'))
-            .filter(|&b| b != 0)
-            .map(char::from)
-            .collect();
-    }
+/// A vector's bits as [`changes_of`] gives them: without leading zeros ("0" for zero).
+fn normalized(v: &str) -> String {
     let z = v.trim_start_matches('0');
     if z.is_empty() {
         "0".into()
@@ -759,7 +762,15 @@ fn the_cli_writes_the_gtkw_beside_the_vcd() {
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
-    assert_eq!(names, ["x.gtkw".to_string(), "x.vcd".to_string()].into());
+    assert_eq!(
+        names,
+        [
+            "x.gtkw".to_string(),
+            "x.sucl".to_string(),
+            "x.vcd".to_string()
+        ]
+        .into()
+    );
     // The window and scope options need --vcd.
     let bad = std::process::Command::new(env!("CARGO_BIN_EXE_shellsim"))
         .args(["run", "--scene", "x.json", "--vcd-window", "1:2"])
@@ -771,7 +782,9 @@ fn the_cli_writes_the_gtkw_beside_the_vcd() {
 /// Opens the save file in a real GTKWave (needs `gtkwave` and `xvfb-run`, e.g. Debian's
 /// packages of those names): every trace is found, formats as written, and the fixed-point
 /// t shows as a decimal. `.ci/run` installs both, and in CI (CI set) their absence fails
-/// the test; on a developer's machine without them it says so and passes.
+/// the test; on a developer's machine without them it says so and passes. The same for an
+/// FST's save file, whose fixed-point values carry their binary point in the range
+/// (`t[2:-12]`) and whose overview shows the CTUs' states by the names of their enum table.
 #[test]
 fn gtkwave_opens_the_save_file_with_every_signal() {
     let have = |tool: &str| {
@@ -789,16 +802,44 @@ fn gtkwave_opens_the_save_file_with_every_signal() {
         return;
     }
     let f = full();
+    gtkwave_lists(&f.gtkw, f.wave.vars.len(), None);
+    let dir = tempfile::tempdir().unwrap();
+    let opts = WaveOptions {
+        window: Window { from: 0, to: 400 },
+        ..WaveOptions::default()
+    };
+    let (_, fst, g) = run(dir.path(), "g.fst", opts);
+    let text = std::fs::read_to_string(&g).unwrap();
+    assert!(text.contains("@100000028\n+{c0 ctu0 state} machine.cluster_0.ctu_0.state[2:0]\n"));
+    assert!(text.contains("\nmachine.cluster_0.icu.stage_0.t[2:-12]\n"));
+    let values = gtkwave_lists(&g, fst.signals.len(), Some(100));
+    let names = shellsim_hw::units::ctu::CtuState::NAMES;
+    let states: Vec<&String> = values
+        .iter()
+        .filter(|(name, _)| name.starts_with("c0 ctu") && name.ends_with(" state"))
+        .map(|(_, v)| v)
+        .collect();
+    assert!(!states.is_empty());
+    for v in states {
+        assert!(names.contains(&v.as_str()), "a state shown as {v:?}");
+    }
+}
+
+/// GTKWave's traces after loading the save file `gtkw` (of a waveform of `vars`
+/// variables): asserts each signal was found, and returns each trace's name and its value
+/// at the marker set at `marker` (empty where GTKWave computes none, as in closed groups).
+fn gtkwave_lists(gtkw: &Path, vars: usize, marker: Option<u64>) -> Vec<(String, String)> {
     let dir = tempfile::tempdir().unwrap();
     let script = dir.path().join("list.tcl");
     let listing = dir.path().join("traces.txt");
+    let set = marker.map_or(String::new(), |m| format!("gtkwave::setMarker {m}\n"));
     std::fs::write(
         &script,
         format!(
-            "set f [open {{{}}} w]\n\
+            "{set}set f [open {{{}}} w]\n\
              set n [gtkwave::getTotalNumTraces]\n\
              for {{set i 0}} {{$i < $n}} {{incr i}} {{\n\
-             puts $f \"[gtkwave::getTraceNameFromIndex $i] [format %x [gtkwave::getTraceFlagsFromIndex $i]]\"\n\
+             puts $f \"[gtkwave::getTraceNameFromIndex $i]\\t[format %x [gtkwave::getTraceFlagsFromIndex $i]]\\t[gtkwave::getTraceValueAtMarkerFromIndex $i]\"\n\
              }}\n\
              close $f\n\
              gtkwave::/File/Quit\n",
@@ -809,7 +850,7 @@ fn gtkwave_opens_the_save_file_with_every_signal() {
     let st = std::process::Command::new("xvfb-run")
         .args(["-a", "gtkwave", "-S"])
         .arg(&script)
-        .arg(&f.gtkw)
+        .arg(gtkw)
         .output()
         .expect("xvfb-run and gtkwave installed");
     assert!(
@@ -818,36 +859,40 @@ fn gtkwave_opens_the_save_file_with_every_signal() {
         String::from_utf8_lossy(&st.stderr)
     );
     let text = std::fs::read_to_string(&listing).unwrap();
-    let traces: Vec<&str> = text.lines().collect();
+    let traces: Vec<Vec<&str>> = text.lines().map(|l| l.split('\t').collect()).collect();
     let groups = traces
         .iter()
-        .filter(|l| {
-            l.rsplit_once(' ')
-                .and_then(|(_, h)| u64::from_str_radix(h, 16).ok())
-                .is_some_and(|fl| fl & gtkw::TR_GRP_BEGIN != 0)
-        })
+        .filter(|t| u64::from_str_radix(t[1], 16).is_ok_and(|fl| fl & gtkw::TR_GRP_BEGIN != 0))
         .count();
     // The overview's traces repeat signals of the unit groups.
-    let overview = std::fs::read_to_string(&f.gtkw)
+    let overview = std::fs::read_to_string(gtkw)
         .unwrap()
         .lines()
         .filter(|l| l.starts_with("+{"))
         .count();
     assert_eq!(
         traces.len(),
-        f.wave.vars.len() + overview + 2 * groups,
-        "a signal was not found"
+        vars + overview + 2 * groups,
+        "{}: a signal was not found",
+        gtkw.display()
     );
+    traces
+        .iter()
+        .map(|t| (t[0].to_string(), t.get(2).unwrap_or(&"").to_string()))
+        .collect()
 }
 
 /// Every variable's `(time, value)` changes from a VCD's text, by full dotted name: vectors
-/// without leading zeros, strings as text, an FST's ASCII-coded text (128 bits) decoded.
+/// without leading zeros, strings as text; in `fst2vcd -e`'s VCD of an FST, a variable under
+/// an enum table's reference (`$attrbegin misc 07 "" HANDLE $end` before its `$var`) named
+/// through that table (`$attrbegin misc 07 NAME COUNT LITERALS… VALUES… HANDLE $end`).
 fn changes_of(text: &str) -> BTreeMap<String, Vec<(u64, String)>> {
     let mut scope: Vec<String> = Vec::new();
-    let mut names: HashMap<String, (String, u32)> = HashMap::new();
+    let mut names: HashMap<String, (String, u32, Option<u64>)> = HashMap::new();
+    let mut tables: HashMap<u64, HashMap<String, String>> = HashMap::new();
+    let mut pending: Option<u64> = None;
     let mut out: BTreeMap<String, Vec<(u64, String)>> = BTreeMap::new();
     let mut t = 0u64;
-    let norm = normalized;
     for line in text.lines() {
         let tok: Vec<&str> = line.split_whitespace().collect();
         match tok.first().copied() {
@@ -855,11 +900,26 @@ fn changes_of(text: &str) -> BTreeMap<String, Vec<(u64, String)>> {
             Some("$upscope") => {
                 scope.pop();
             }
+            Some("$attrbegin") if tok.get(1..3) == Some(&["misc", "07"][..]) => {
+                let handle: u64 = tok[tok.len() - 2].parse().unwrap();
+                if tok[3] == "\"\"" {
+                    pending = Some(handle);
+                } else {
+                    let n: usize = tok[4].parse().unwrap();
+                    let (lits, vals) = (&tok[5..5 + n], &tok[5 + n..5 + 2 * n]);
+                    let map = vals
+                        .iter()
+                        .zip(lits)
+                        .map(|(v, l)| (v.to_string(), l.to_string()))
+                        .collect();
+                    tables.insert(handle, map);
+                }
+            }
             Some("$var") => {
                 let w: u32 = tok[2].parse().unwrap();
                 let name = tok[4].split('[').next().unwrap();
                 let full = format!("{}.{}", scope.join("."), name);
-                names.insert(tok[3].to_string(), (full, w));
+                names.insert(tok[3].to_string(), (full, w, pending.take()));
             }
             Some(x) if x.starts_with('#') => t = x[1..].parse().unwrap(),
             Some(x)
@@ -867,10 +927,18 @@ fn changes_of(text: &str) -> BTreeMap<String, Vec<(u64, String)>> {
                     && tok.len() == 2
                     && names.contains_key(tok[1]) =>
             {
-                let (n, w) = &names[tok[1]];
-                let v = match x.strip_prefix('s') {
-                    Some(text) => text.to_string(),
-                    None => norm(&x[1..], *w),
+                let (n, w, table) = &names[tok[1]];
+                let v = match (x.strip_prefix('s'), table) {
+                    (Some(text), _) => text.to_string(),
+                    (None, Some(h)) => {
+                        let bits = format!("{:0>w$}", &x[1..], w = *w as usize);
+                        match tables[h].get(&bits) {
+                            Some(name) => name.clone(),
+                            // fst2vcd's initial all-x value
+                            None => bits,
+                        }
+                    }
+                    (None, None) => normalized(&x[1..]),
                 };
                 out.entry(n.clone()).or_default().push((t, v));
             }
@@ -879,7 +947,7 @@ fn changes_of(text: &str) -> BTreeMap<String, Vec<(u64, String)>> {
                     && x.len() > 1
                     && names.contains_key(&x[1..]) =>
             {
-                let (n, _) = &names[&x[1..]];
+                let (n, ..) = &names[&x[1..]];
                 out.entry(n.clone())
                     .or_default()
                     .push((t, x[..1].to_string()));
@@ -927,6 +995,7 @@ fn fst_matches_vcd(opts: WaveOptions) {
         return;
     }
     let o = std::process::Command::new("fst2vcd")
+        .arg("-e")
         .arg(&f.path)
         .output()
         .unwrap();
@@ -1075,4 +1144,308 @@ fn the_machine_declares_only_the_units_a_probe_wants() {
         .collect();
     assert_eq!(one.iter().collect::<Vec<_>>(), want);
     assert!(layout(|_| false).is_empty());
+}
+
+/// An FST's FSM states are small integers named by FST enum tables: each state variable of
+/// wellen's reading has a table, which lists the VCD's names (then "-") in order, valued
+/// 0, 1, … in the signal's width; read through it, the state takes the VCD's strings at the
+/// same times (so a table naming the values wrongly, or a state written as anything but its
+/// index, fails); and GTKWave's `fst2vcd -e` shows the same table.
+#[test]
+fn the_fsts_fsm_states_carry_enum_tables_with_the_vcds_names() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = WaveOptions {
+        window: Window { from: 0, to: 1500 },
+        ..WaveOptions::default()
+    };
+    let (_, v, _) = run(dir.path(), "e.vcd", opts.clone());
+    let (_, f, _) = run(dir.path(), "e.fst", opts);
+    let names = shellsim_hw::units::ctu::CtuState::NAMES;
+    let states: Vec<&shellsim::wave::Signal> = f
+        .signals
+        .iter()
+        .filter(|s| matches!(s.kind, shellsim::wave::SignalKind::Text { .. }))
+        .collect();
+    assert!(states.len() >= 2, "the small machine has CTUs");
+    let w = wellen::simple::read(&f.path).unwrap();
+    let h = w.hierarchy();
+    let from_vcd = changes_of(&std::fs::read_to_string(&v.path).unwrap());
+    let from_fst = wellen_changes(&f.path);
+    let width = shellsim::wave::state_bits(names.len() as u32);
+    assert_eq!(width, 3);
+    for s in &states {
+        let var = h
+            .all_vars()
+            .map(|r| &h[r])
+            .find(|x| x.full_name(h) == s.full_name())
+            .unwrap_or_else(|| panic!("{} not in the FST", s.full_name()));
+        assert_eq!(var.length(h), Some(width), "{}", s.full_name());
+        let (_, table) = var
+            .enum_type(h)
+            .unwrap_or_else(|| panic!("{}: no enum table", s.full_name()));
+        let want: Vec<(String, String)> = names
+            .iter()
+            .chain(&["-"])
+            .enumerate()
+            .map(|(k, n)| (format!("{k:03b}"), n.to_string()))
+            .collect();
+        let got: Vec<(String, String)> = table
+            .iter()
+            .map(|(v, n)| (v.to_string(), n.to_string()))
+            .collect();
+        assert_eq!(got, want, "{}", s.full_name());
+        let seen: BTreeSet<&str> = from_vcd[&s.full_name()]
+            .iter()
+            .map(|(_, x)| x.as_str())
+            .collect();
+        assert!(seen.len() >= 3, "{}: {seen:?}", s.full_name());
+        assert_eq!(
+            from_fst[&s.full_name()],
+            from_vcd[&s.full_name()],
+            "{}",
+            s.full_name()
+        );
+    }
+    if !have_fst2vcd() {
+        return;
+    }
+    let o = std::process::Command::new("fst2vcd")
+        .arg("-e")
+        .arg(&f.path)
+        .output()
+        .unwrap();
+    assert!(o.status.success());
+    let text = String::from_utf8(o.stdout).unwrap();
+    let table = format!(
+        "$attrbegin misc 07 state {} {} - {} 1 $end",
+        names.len() + 1,
+        names.join(" "),
+        (0..=names.len())
+            .map(|k| format!("{k:03b}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    assert!(text.contains(&table), "fst2vcd shows no table {table}");
+    // One table, referred to by every state.
+    assert_eq!(text.matches("$attrbegin misc 07 state ").count(), 1);
+    assert_eq!(
+        text.matches("$attrbegin misc 07 \"\" 1 $end").count(),
+        states.len()
+    );
+}
+
+/// Surfer's commands, from its command parser (gitlab.com/surfer-project/surfer,
+/// libsurfer/src/command_parser.rs, `get_parser`: the commands its prompt and command files
+/// take once a file is loaded); a .sucl may use only these.
+const SURFER_COMMANDS: &[&str] = &[
+    "load_file",
+    "load_url",
+    "load_state",
+    "run_command_file",
+    "run_command_file_from_url",
+    "switch_file",
+    "variable_add",
+    "generator_add",
+    "item_focus",
+    "item_set_color",
+    "item_set_background_color",
+    "item_set_format",
+    "item_unset_color",
+    "item_unset_background_color",
+    "item_unfocus",
+    "item_rename",
+    "zoom_fit",
+    "scope_add",
+    "scope_add_recursive",
+    "scope_add_as_group",
+    "scope_add_as_group_recursive",
+    "scope_select",
+    "stream_add",
+    "stream_select",
+    "divider_add",
+    "config_reload",
+    "theme_select",
+    "reload",
+    "remove_unavailable",
+    "scroll_to_start",
+    "scroll_to_end",
+    "goto_start",
+    "goto_end",
+    "zoom_in",
+    "zoom_out",
+    "toggle_menu",
+    "toggle_side_panel",
+    "toggle_fullscreen",
+    "toggle_tick_lines",
+    "variable_add_from_scope",
+    "variable_set_name_type",
+    "variable_force_name_type",
+    "goto_cursor",
+    "goto_marker",
+    "group_marked",
+    "group_dissolve",
+    "group_fold_all",
+    "group_unfold_all",
+    "timeline_add",
+    "cursor_set",
+    "marker_set",
+    "marker_remove",
+    "show_controls",
+    "show_mouse_gestures",
+    "show_quick_start",
+    "show_logs",
+    "generator_add_from_stream",
+    "preference_set_clock_highlight",
+    "preference_set_hierarchy_style",
+    "preference_set_arrow_key_bindings",
+    "dump_tree",
+    "group_fold_recursive",
+    "group_unfold_recursive",
+    "save_state",
+    "save_state_as",
+    "show_marker_window",
+    "viewport_add",
+    "viewport_remove",
+    "transition_next",
+    "transition_previous",
+    "transaction_next",
+    "transaction_prev",
+    "copy_value",
+    "pause_simulation",
+    "unpause_simulation",
+    "undo",
+    "redo",
+    "wcp_server_start",
+    "wcp_server_stop",
+    "exit",
+];
+
+/// Surfer's built-in formats (translators) a .sucl may name (libsurfer/src/translation/:
+/// `UnsignedTranslator` and its siblings' `name()`; an unknown name panics Surfer's
+/// `get_translator`).
+const SURFER_FORMATS: &[&str] = &[
+    "Binary",
+    "Hexadecimal",
+    "Octal",
+    "Unsigned",
+    "Signed",
+    "ASCII",
+    "Signed fixed point",
+    "Unsigned fixed point",
+];
+
+/// The Surfer command file beside a VCD's and an FST's .gtkw: every command is one Surfer
+/// knows, it loads the waveform beside it, adds exactly the .gtkw's overview signals (each a
+/// variable of the waveform as wellen reads it), focuses only items it added and that are
+/// vectors before giving them a format Surfer has, and ends zoomed to fit.
+#[test]
+fn the_sucl_beside_every_gtkw_adds_the_overview_in_surfers_commands() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = WaveOptions {
+        window: Window { from: 0, to: 600 },
+        ..WaveOptions::default()
+    };
+    for file in ["s.vcd", "s.fst"] {
+        let (_, summary, g) = run(dir.path(), file, opts.clone());
+        let path = sucl::path_for(&summary.path);
+        assert_eq!(path.file_stem(), g.file_stem());
+        let text = std::fs::read_to_string(&path).unwrap();
+        let w = wellen::simple::read(&summary.path).unwrap();
+        let h = w.hierarchy();
+        let vars: BTreeMap<String, u32> = h
+            .all_vars()
+            .map(|r| (h[r].full_name(h), h[r].length(h).unwrap_or(0)))
+            .collect();
+        let mut added: Vec<String> = Vec::new();
+        let mut focused: Option<usize> = None;
+        let mut commands = Vec::new();
+        for line in text.lines() {
+            let line = line.split('#').next().unwrap().trim();
+            if line.is_empty() {
+                continue;
+            }
+            let (cmd, arg) = line.split_once(' ').unwrap_or((line, ""));
+            assert!(SURFER_COMMANDS.contains(&cmd), "{cmd} is not Surfer's");
+            commands.push(cmd);
+            match cmd {
+                "load_file" => assert_eq!(arg, file),
+                "variable_add" => {
+                    assert!(vars.contains_key(arg), "{arg} is not in {file}");
+                    added.push(arg.to_string());
+                }
+                "item_focus" => {
+                    let hex: String = arg
+                        .chars()
+                        .map(|c| char::from_digit(c as u32 - 'a' as u32, 16).unwrap())
+                        .collect();
+                    let i = usize::from_str_radix(&hex, 16).unwrap();
+                    assert!(i < added.len(), "item {arg} is not added yet");
+                    assert!(vars[&added[i]] > 1, "{} is not a vector", added[i]);
+                    focused = Some(i);
+                }
+                "item_set_format" => {
+                    assert!(focused.is_some(), "a format for no item");
+                    assert!(SURFER_FORMATS.contains(&arg), "{arg} is not Surfer's");
+                }
+                "item_unfocus" => focused = None,
+                "zoom_fit" => {}
+                other => panic!("{other} is not expected"),
+            }
+        }
+        assert_eq!(commands.first(), Some(&"load_file"));
+        assert_eq!(commands.last(), Some(&"zoom_fit"));
+        // The overview of the .gtkw: its aliased traces, by name without their range.
+        let gtkw_text = std::fs::read_to_string(&g).unwrap();
+        let overview: Vec<String> = gtkw_text
+            .lines()
+            .filter_map(|l| l.strip_prefix("+{"))
+            .map(|l| {
+                let name = l.split_once("} ").unwrap().1;
+                name.split('[').next().unwrap().to_string()
+            })
+            .collect();
+        assert!(!overview.is_empty());
+        assert_eq!(added, overview, "{file}");
+    }
+}
+
+/// An FST declares each fixed-point value with its binary point in its range (`t[2:-12]`
+/// for 15 bits with 12 fractional), which wellen reads as the variable's index, so Surfer
+/// scales the value by 2^lsb; the VCD keeps `[w-1:0]` (its header unchanged).
+#[test]
+fn an_fsts_fixed_point_values_carry_their_binary_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let opts = WaveOptions {
+        window: Window { from: 0, to: 300 },
+        ..WaveOptions::default()
+    };
+    let frac = small().datapath.formats().unwrap().t.frac_bits as i64;
+    for file in ["b.fst", "b.vcd"] {
+        let (_, summary, _) = run(dir.path(), file, opts.clone());
+        let w = wellen::simple::read(&summary.path).unwrap();
+        let h = w.hierarchy();
+        let mut fixed = 0;
+        for s in &summary.signals {
+            let shellsim::wave::SignalKind::Fixed { frac: f } = s.kind else {
+                continue;
+            };
+            let var = h
+                .all_vars()
+                .map(|r| &h[r])
+                .find(|x| x.full_name(h) == s.full_name())
+                .unwrap();
+            let idx = var.index().expect("a vector has a range");
+            let want = if file.ends_with("fst") {
+                (s.width as i64 - 1 - f as i64, -(f as i64))
+            } else {
+                (s.width as i64 - 1, 0)
+            };
+            assert_eq!((idx.msb(), idx.lsb()), want, "{}", s.full_name());
+            if s.name == "t" {
+                assert_eq!(f as i64, frac);
+            }
+            fixed += 1;
+        }
+        assert!(fixed > 0, "no fixed-point signal in {file}");
+    }
 }

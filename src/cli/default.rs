@@ -13,6 +13,10 @@ pub fn run() -> Result<()> {
     check_outputs(&[
         Output::file("the default job's VCD", Path::new(WAVES_VCD)),
         Output::file("the default job's .gtkw", &path_for(Path::new(WAVES_VCD))),
+        Output::file(
+            "the default job's .sucl",
+            &crate::wave::sucl::path_for(Path::new(WAVES_VCD)),
+        ),
         Output::file("the default job's JSON", Path::new(WAVES_JSON)),
     ])?;
     let j = default_job()?;

@@ -26,7 +26,8 @@ pub struct RunArgs {
     #[arg(long, value_enum)]
     pub balance: Option<OnOff>,
     /// Write the machine's waveform as a VCD here, and a GTKWave save file (signals grouped
-    /// per unit and formatted) beside it with the same stem and extension .gtkw.
+    /// per unit and formatted) beside it with the same stem and extension .gtkw, and a
+    /// Surfer command file (the overview) with extension .sucl.
     #[arg(long, value_name = "OUT", group = "waveform")]
     pub vcd: Option<PathBuf>,
     /// Write the machine's waveform here: FILE.fst as FST (GTKWave's compressed format),
@@ -147,6 +148,10 @@ impl RunArgs {
                 v.push(Output::file(
                     &format!("{flag} (its .gtkw)"),
                     &crate::wave::gtkw::path_for(p),
+                ));
+                v.push(Output::file(
+                    &format!("{flag} (its .sucl)"),
+                    &crate::wave::sucl::path_for(p),
                 ));
             }
         }

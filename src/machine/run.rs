@@ -338,7 +338,8 @@ impl RunStats {
     }
 }
 
-/// The waveform a run wrote: the VCD or FST and the GTKWave save file beside it.
+/// The waveform a run wrote: the VCD or FST and the GTKWave save file beside it (and the
+/// Surfer command file, wave/sucl.rs).
 #[derive(Clone, Debug)]
 pub struct Waveform {
     pub path: PathBuf,
@@ -356,10 +357,10 @@ pub struct Executed {
     pub escaped: Vec<u32>,
 }
 
-/// Runs the machine ([`run`]), writing the VCD (+ .gtkw) and the JSON (configuration +
+/// Runs the machine ([`run`]), writing the VCD (+ .gtkw, .sucl) and the JSON (configuration +
 /// statistics) when asked. The VCD streams into a temporary file; an error drops the
 /// writer, which removes it, so a failed run leaves no waveform behind. A VCD path whose
-/// GTKWave save file would be itself is `Error::Param` `vcd`.
+/// GTKWave save file or Surfer command file would be itself is `Error::Param` `vcd`.
 pub fn execute(
     scene: &Scene,
     file: &Path,
@@ -369,11 +370,11 @@ pub fn execute(
     json: Option<&Path>,
 ) -> Result<Executed> {
     if let Some((p, _)) = &wave {
-        if crate::wave::gtkw::path_for(p) == *p {
+        if crate::wave::gtkw::path_for(p) == *p || crate::wave::sucl::path_for(p) == *p {
             return Err(Error::param(
                 "vcd",
                 format!(
-                    "{}: the GTKWave save file would overwrite it; name it *.vcd or *.fst",
+                    "{}: the GTKWave save file or Surfer command file would overwrite it; name it *.vcd or *.fst",
                     p.display()
                 ),
             ));
@@ -394,6 +395,7 @@ pub fn execute(
             // A VCD streamed to a device or FIFO has no directory to put a save file in.
             if crate::output::is_file_path(&summary.path) {
                 crate::wave::gtkw::write(&gtkw, &summary)?;
+                crate::wave::sucl::write(&crate::wave::sucl::path_for(&summary.path), &summary)?;
             }
             Some(Waveform {
                 path: summary.path.clone(),

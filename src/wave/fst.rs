@@ -1,33 +1,32 @@
 //! The FST format (GTKWave's compressed format): the header and the value changes of a
 //! `.fst` path, on the patched `fst-writer` crate (vendor/fst-writer).
 //!
-//! The crate writes bit vectors and reals only, so a string (an FSM state) is a bit vector of
-//! [`FST_TEXT_CHARS`] ASCII characters, right-aligned and NUL-padded, which the .gtkw shows in
-//! GTKWave's ASCII format: the same text as the VCD's string variable.
+//! A fixed-point value is declared with its binary point in the name's range (`t[2:-12]`,
+//! as GTKWave and wellen read an FST variable's range from its name), so Surfer scales it.
+//! An FSM state (a text signal) is a small integer, its state's index — as wide as its
+//! [`state_bits`] — declared with an FST enum table that names each value (the VCD's
+//! strings, then "-" for any other value): GTKWave (through the .gtkw's `TR_ENUM`) and
+//! Surfer show the names, and one table serves every signal with the same names.
 //!
 //! The body runs on the waveform's own thread, fed the samples' value arrays in order by the
 //! simulation thread (`super::stream`): each sample comes as its
 //! changed values (the machine finds them as it fills its array), and each changed declared value goes to the crate
-//! as an integer (a text, an FSM state, as the bits of its ASCII characters), which encodes
+//! as an integer, which encodes
 //! it into its signal's change chain; each section is compressed (zlib format through
 //! libdeflate, or LZ4: [`FstPack`]) and written in turn by the crate's compressor thread
 //! while the next one fills, so the file's bytes do not depend on the timing. Sections are
 //! cut every [`FST_FLUSH_BYTES`] of changes (the crate's estimate) so memory stays bounded.
 
 use super::options::{FstPack, WaveOptions, Window};
-use super::signal::{ScopeNode, SignalKind, Slot};
+use super::signal::{state_bits, ScopeNode, SignalKind, Slot};
 use super::stream::{entries, Body, BodyEnd, Clock};
 use fst_writer::{
-    FstBodyWriter, FstCompression, FstFileType, FstHeaderWriter, FstInfo, FstScopeType,
-    FstSignalId, FstSignalType, FstVarDirection, FstVarType,
+    FstBodyWriter, FstCompression, FstEnumHandle, FstFileType, FstHeaderWriter, FstInfo,
+    FstScopeType, FstSignalId, FstSignalType, FstVarDirection, FstVarType,
 };
 use shellsim_hw::trace::{apply_changes, ChangeSink};
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
-
-/// Characters of an FST text signal (the longest FSM state, SHELL_START, has 11); a longer
-/// text keeps its last 16 characters.
-pub const FST_TEXT_CHARS: u32 = 16;
 
 /// The FST's header writer, until the layout is declared.
 pub(super) type FstHeader = FstHeaderWriter<BufWriter<File>>;
@@ -66,25 +65,11 @@ fn compression(pack: FstPack) -> FstCompression {
     }
 }
 
-/// One probe signal as the FST body writes it.
-#[derive(Clone, Copy)]
-struct FstHandle {
-    /// Its FST signal, when declared (inside the scope filter).
-    id: Option<FstSignalId>,
-    /// A text (FSM state): written as the bits of its ASCII characters.
-    text: bool,
-    /// Its width in the FST, in bits (a text's: 8 per character).
-    width: u32,
-}
-
 /// The FST's value changes, after the header, on the waveform's thread (`super::stream`): the last sample's values, the window clock, and the crate's body writer.
 pub(super) struct FstBody {
     w: FstBodyWriter<BufWriter<File>>,
     /// Per probe signal (the sample's positions): its FST signal and how it is written.
     sigs: Vec<Sig>,
-    /// Per probe signal, a text's values as FST bits: one per name, then "-" (any other);
-    /// each as '0'/'1' and packed eight bits a byte.
-    text_bits: Vec<Vec<(Vec<u8>, Vec<u8>)>>,
     /// Declared signals in the header's order (probe positions).
     order: Vec<usize>,
     /// The last sample's values and the window.
@@ -93,10 +78,8 @@ pub(super) struct FstBody {
     /// The sample being written, and whether its time change is out.
     now: u64,
     stamped: bool,
-    /// One sample's integer changes, handed over together (room for every signal).
+    /// One sample's changes, handed over together (room for every signal).
     batch: Vec<(FstSignalId, u64)>,
-    /// One sample's text changes (probe position, value).
-    text_batch: Vec<(usize, u64)>,
     /// Bytes of value changes counted since the last section was cut (see [`FST_FLUSH_BYTES`]).
     size: usize,
     /// Time changes written (a section may be cut every 256).
@@ -108,22 +91,12 @@ pub(super) struct FstBody {
 struct Sig {
     /// Its FST signal, when declared.
     id: Option<FstSignalId>,
-    /// A text (FSM state), else a bit vector written as an integer.
-    text: bool,
+    /// The largest value written as is: an FSM state's index past its names is written as
+    /// the table's "-" (the names' count); any other signal's values are written unchanged.
+    max: u64,
     /// The bytes a change of it counts toward a section's size: one for the time delta and
     /// the value's bytes (the crate's own estimate of its chains).
     cost: u32,
-}
-
-/// '0'/'1' bits packed eight a byte, MSB first, the last byte padded with zeros.
-fn pack_bits(bits: &[u8]) -> Vec<u8> {
-    bits.chunks(8)
-        .map(|c| {
-            c.iter()
-                .enumerate()
-                .fold(0u8, |b, (k, &x)| b | ((x == b'1') as u8) << (7 - k))
-        })
-        .collect()
 }
 
 /// An FST error as an I/O error (the writer reports every failure as "writing: …").
@@ -146,36 +119,32 @@ impl FstBody {
     ) -> io::Result<(Self, Vec<usize>)> {
         let mut decl = Declared {
             ids: vec![None; slots.len()],
-            texts: vec![Vec::new(); slots.len()],
+            tables: Vec::new(),
             order: Vec::new(),
         };
         declare(&mut h, &ScopeNode::of(slots, keep), slots, &mut decl).map_err(fst_err)?;
-        let handles: Vec<FstHandle> = slots
+        let sigs = slots
             .iter()
             .zip(&decl.ids)
-            .map(|(s, &id)| FstHandle {
+            .map(|(s, &id)| Sig {
                 id,
-                text: s.sig.kind == SignalKind::Text,
-                width: fst_width(s),
+                max: match s.sig.kind {
+                    SignalKind::Text { states } => states as u64,
+                    _ => u64::MAX,
+                },
+                cost: 1 + fst_width(s).div_ceil(8),
             })
             .collect();
         let order = decl.order;
-        let body = Self::on(
-            h.finish().map_err(fst_err)?,
-            handles,
-            decl.texts,
-            order.clone(),
-            pack,
-        )?;
+        let body = Self::on(h.finish().map_err(fst_err)?, sigs, order.clone(), pack)?;
         Ok((body, order))
     }
 
-    /// The body writer `w` (the header written), the signals' handles and texts (by probe
-    /// position) and the declared order.
+    /// The body writer `w` (the header written), the signals (by probe position) and the
+    /// declared order.
     fn on(
         mut w: FstBodyWriter<BufWriter<File>>,
-        handles: Vec<FstHandle>,
-        text_bits: Vec<Vec<Vec<u8>>>,
+        sigs: Vec<Sig>,
         order: Vec<usize>,
         pack: FstPack,
     ) -> io::Result<Self> {
@@ -184,28 +153,16 @@ impl FstBody {
         // the crate's test for one is never true.
         w.set_deduplicate(false);
         w.compress_in_background().map_err(fst_err)?;
-        let sigs = handles.iter().map(|h| Sig {
-            id: h.id,
-            text: h.text,
-            cost: 1 + h.width.div_ceil(8),
-        });
+        let n = sigs.len();
         Ok(FstBody {
             w,
-            sigs: sigs.collect(),
-            text_bits: text_bits
-                .into_iter()
-                .map(|lines| {
-                    let packed = lines.iter().map(|l| pack_bits(l)).collect::<Vec<_>>();
-                    lines.into_iter().zip(packed).collect()
-                })
-                .collect(),
+            sigs,
             order,
-            prev: vec![0; handles.len()],
+            prev: vec![0; n],
             clock: Clock::default(),
             now: 0,
             stamped: false,
-            batch: Vec::with_capacity(handles.len()),
-            text_batch: Vec::with_capacity(handles.len()),
+            batch: Vec::with_capacity(n),
             size: 0,
             stamps: 0,
         })
@@ -217,39 +174,20 @@ impl FstBody {
         let s = self.sigs[i];
         if let Some(id) = s.id {
             self.size += s.cost as usize;
-            if s.text {
-                self.text_batch.push((i, v));
-            } else {
-                self.batch.push((id, v));
-            }
+            self.batch.push((id, v.min(s.max)));
         }
     }
 
     /// Writes time `t` and the queued changes, when there are any.
     fn write_batch(&mut self, t: u64) -> io::Result<bool> {
-        if self.batch.is_empty() && self.text_batch.is_empty() {
+        if self.batch.is_empty() {
             return Ok(false);
         }
         self.w.time_change(t).map_err(fst_err)?;
         self.stamps += 1;
         self.w.signal_changes_u64(&self.batch).map_err(fst_err)?;
         self.batch.clear();
-        self.write_texts()?;
         Ok(true)
-    }
-
-    /// Writes the queued text changes (at the time step already written).
-    fn write_texts(&mut self) -> io::Result<()> {
-        for &(i, v) in &self.text_batch {
-            let id = self.sigs[i].id.expect("queued texts are declared");
-            let lines = &self.text_bits[i];
-            let (ascii, packed) = &lines[(v as usize).min(lines.len() - 1)];
-            self.w
-                .signal_change_packed(id, ascii, packed)
-                .map_err(fst_err)?;
-        }
-        self.text_batch.clear();
-        Ok(())
     }
 }
 
@@ -275,14 +213,10 @@ impl Body for FstBody {
     /// Takes the sample's changes and writes time `t` and the changed declared values
     /// (nothing when none is declared); cuts a section past [`FST_FLUSH_BYTES`].
     fn write_changes(&mut self, t: u64, changes: &[u64]) -> io::Result<()> {
-        // Each integer change goes to the crate as it comes (time `t` first, once); the
-        // texts after them (each signal's chain is its own, so the order between signals
-        // within a time step does not show in the file).
+        // Each change goes to the crate as it comes (time `t` first, once).
         (self.now, self.stamped) = (t, false);
         apply_changes(self, entries(changes))?;
-        let stamped = self.stamped;
-        self.write_texts()?;
-        if stamped && self.stamps.is_multiple_of(256) && self.size > FST_FLUSH_BYTES {
+        if self.stamped && self.stamps.is_multiple_of(256) && self.size > FST_FLUSH_BYTES {
             self.size = 0;
             self.w.flush().map_err(fst_err)?;
         }
@@ -308,8 +242,7 @@ impl ChangeSink for FstBody {
         &mut self.prev
     }
 
-    /// A declared signal's change (after time `now`, once per sample): an integer to the
-    /// crate now, a text queued for after the sample's integers.
+    /// A declared signal's change (after time `now`, once per sample), to the crate now.
     #[inline(always)]
     fn change(&mut self, i: usize, v: u64) -> io::Result<()> {
         let s = self.sigs[i];
@@ -322,25 +255,22 @@ impl ChangeSink for FstBody {
             self.stamps += 1;
         }
         self.size += s.cost as usize;
-        if s.text {
-            self.text_batch.push((i, v));
-        } else {
-            self.w.signal_change_u64(id, v).map_err(fst_err)?;
-        }
-        Ok(())
+        self.w.signal_change_u64(id, v.min(s.max)).map_err(fst_err)
     }
 }
 
-/// What [`declare`] builds: per position its FST id and a text's values as FST bits, and
-/// the declared positions in the header's order.
+/// What [`declare`] builds: per position its FST id, the enum tables declared (their
+/// names' lists, tables' names and handles), and the declared positions in the header's
+/// order.
 struct Declared {
     ids: Vec<Option<FstSignalId>>,
-    texts: Vec<Vec<Vec<u8>>>,
+    tables: Vec<(Vec<String>, String, FstEnumHandle)>,
     order: Vec<usize>,
 }
 
 /// Declares `node`'s children in the FST, as the VCD's header does: a module scope each,
-/// its variables, then its sub-scopes.
+/// its variables, then its sub-scopes; an FSM state with its enum table (declared before
+/// its first user, shared by every state with the same names).
 fn declare<W: Write + io::Seek>(
     h: &mut FstHeaderWriter<W>,
     node: &ScopeNode,
@@ -351,17 +281,22 @@ fn declare<W: Write + io::Seek>(
         h.scope(&c.name, "", FstScopeType::Module)?;
         for &i in &c.vars {
             let s = &slots[i];
-            let id = h.var(
-                &s.sig.name,
-                FstSignalType::bit_vec(fst_width(s)),
-                FstVarType::Wire,
-                FstVarDirection::Implicit,
-                None,
-            )?;
+            let tpe = FstSignalType::bit_vec(fst_width(s));
+            let (wire, dir) = (FstVarType::Wire, FstVarDirection::Implicit);
+            let id = match s.sig.kind {
+                SignalKind::Text { .. } => {
+                    let table = enum_table(h, s, &mut decl.tables)?;
+                    h.var_with_enum(&s.sig.name, tpe, wire, dir, table)?
+                }
+                _ => match s.sig.fixed_range() {
+                    Some((msb, lsb)) if s.sig.width > 1 => {
+                        let name = format!("{}[{msb}:{lsb}]", s.sig.name);
+                        h.var(name, tpe, wire, dir, None)?
+                    }
+                    _ => h.var(&s.sig.name, tpe, wire, dir, None)?,
+                },
+            };
             decl.ids[i] = Some(id);
-            let mut texts: Vec<Vec<u8>> = s.names.iter().map(|n| fst_text_bits(n)).collect();
-            texts.push(fst_text_bits("-"));
-            decl.texts[i] = texts;
             decl.order.push(i);
         }
         declare(h, c, slots, decl)?;
@@ -370,22 +305,49 @@ fn declare<W: Write + io::Seek>(
     Ok(())
 }
 
-/// A signal's width in the FST: a text's is [`FST_TEXT_CHARS`] ASCII characters.
-fn fst_width(s: &Slot) -> u32 {
-    match s.sig.kind {
-        SignalKind::Text => 8 * FST_TEXT_CHARS,
-        _ => s.sig.width,
+/// The enum table of the FSM state `s`: its names, then "-" (any other value), valued
+/// 0, 1, … in [`state_bits`] bits; declared when no earlier state has the same names, and
+/// named after the signal (`state`, then `state_1`, … for other lists of names).
+fn enum_table<W: Write + io::Seek>(
+    h: &mut FstHeaderWriter<W>,
+    s: &Slot,
+    tables: &mut Vec<(Vec<String>, String, FstEnumHandle)>,
+) -> fst_writer::Result<FstEnumHandle> {
+    if let Some((.., t)) = tables.iter().find(|(n, ..)| *n == s.names) {
+        return Ok(*t);
     }
+    let base: String = s
+        .sig
+        .name
+        .chars()
+        .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+        .collect();
+    let same = tables
+        .iter()
+        .filter(|(_, n, _)| n.starts_with(&base))
+        .count();
+    let name = match same {
+        0 => base,
+        k => format!("{base}_{k}"),
+    };
+    let w = fst_width(s) as usize;
+    let values: Vec<String> = (0..=s.names.len()).map(|k| format!("{k:0w$b}")).collect();
+    let entries: Vec<(&str, &str)> = s
+        .names
+        .iter()
+        .map(String::as_str)
+        .chain(["-"])
+        .zip(values.iter().map(String::as_str))
+        .collect();
+    let t = h.enum_table(&name, w as u32, &entries)?;
+    tables.push((s.names.clone(), name, t));
+    Ok(t)
 }
 
-/// A text as FST writes it: [`FST_TEXT_CHARS`] ASCII characters, right-aligned and
-/// NUL-padded (a longer text keeps its tail), as '0'/'1' bytes MSB first.
-fn fst_text_bits(t: &str) -> Vec<u8> {
-    let bytes = t.as_bytes();
-    let n = FST_TEXT_CHARS as usize;
-    let tail = &bytes[bytes.len().saturating_sub(n)..];
-    let pad = std::iter::repeat_n(0u8, n - tail.len());
-    pad.chain(tail.iter().copied())
-        .flat_map(|c| format!("{c:08b}").into_bytes())
-        .collect()
+/// A signal's width in the FST: an FSM state's is its [`state_bits`].
+fn fst_width(s: &Slot) -> u32 {
+    match s.sig.kind {
+        SignalKind::Text { states } => state_bits(states),
+        _ => s.sig.width,
+    }
 }

@@ -12,9 +12,10 @@
 //! - `@HEX` sets the trace flags of the traces that follow (sticky): a bit set of GTKWave's
 //!   `TR_*` flags (`src/analyzer.h`: `TR_HEX_B` = 1, `TR_DEC_B` = 2, `TR_BIN_B` = 3,
 //!   `TR_RJUSTIFY_B` = 5, `TR_BLANK_B` = 9, `TR_SIGNED_B` = 10, `TR_GRP_BEGIN_B` = 23,
-//!   `TR_GRP_END_B` = 24, `TR_FPDECSHIFT_B` = 30). Hence `@28` binary, `@22` hex, `@24`
-//!   decimal, `@420` signed decimal; `@20` sets no number format, so the trace keeps the one
-//!   GTKWave gives its type (a string variable shows its text whatever the format).
+//!   `TR_GRP_END_B` = 24, `TR_FPDECSHIFT_B` = 30, `TR_ENUM_B` = 32). Hence `@28` binary,
+//!   `@22` hex, `@24` decimal, `@420` signed decimal; `@20` sets no number format, so the
+//!   trace keeps the one GTKWave gives its type (a string variable shows its text whatever
+//!   the format); `@100000028` an FST's FSM state through its variable's enum table.
 //! - `-LABEL` after `@800200` (group begin + blank) opens a group, after `@1000200` (group end
 //!   + blank) closes it; groups nest.
 //! - `[fpshift_count] N` sets the fixed-point shift of the traces that follow (sticky, 0..=255;
@@ -27,9 +28,8 @@
 //!   a string `scope.name`, and a wider wire `scope.name[msb:lsb]` — so vectors carry their
 //!   `[w-1:0]` range here, exactly as `vcd_out` declares it.
 
-use super::fst::FST_TEXT_CHARS;
 use super::options::WaveFormat;
-use super::signal::{Signal, SignalKind, WaveSummary};
+use super::signal::{state_bits, Signal, SignalKind, WaveSummary};
 use crate::error::Result;
 use crate::output::write_atomic;
 use std::fmt::Write as _;
@@ -45,8 +45,6 @@ pub const TR_BIN: u64 = 1 << 3;
 pub const TR_RJUSTIFY: u64 = 1 << 5;
 /// `TR_BLANK`: a blank or comment line (groups are blanks with a group flag).
 pub const TR_BLANK: u64 = 1 << 9;
-/// `TR_ASCII`: a bit vector shown as ASCII text (an FST's FSM state, see `WaveFormat::Fst`).
-pub const TR_ASCII: u64 = 1 << 11;
 /// `TR_COLLAPSED`: set on the end of a closed group.
 pub const TR_COLLAPSED: u64 = 1 << 12;
 /// `TR_CLOSED`: a group shown closed (its traces hidden until opened).
@@ -59,6 +57,10 @@ pub const TR_GRP_BEGIN: u64 = 1 << 23;
 pub const TR_GRP_END: u64 = 1 << 24;
 /// `TR_FPDECSHIFT`: fixed-point decimal with the trace's `[fpshift_count]` shift.
 pub const TR_FPDECSHIFT: u64 = 1 << 30;
+/// `TR_ENUM`: a value shown through the FST enum table its variable refers to (with
+/// `TR_BIN`, the table's values being binary; GTKWave's `AddTrace` gives the trace the
+/// variable's table when it loads the save file).
+pub const TR_ENUM: u64 = 1 << 32;
 
 /// The save file's path for a VCD: same directory and stem, extension `.gtkw`.
 pub fn path_for(vcd: &Path) -> PathBuf {
@@ -71,11 +73,16 @@ pub fn trace_name(s: &Signal) -> String {
 }
 
 /// The name GTKWave gives `s` in a waveform of `format`: as in the VCD, except that an FST
-/// holds a text as an ASCII bit vector (`name[127:0]`).
+/// holds an FSM state as its index, a vector of [`state_bits`] (`name[2:0]`), and declares a
+/// fixed-point value with its binary point (`t[2:-12]`, `Signal::fixed_range`).
 pub fn trace_name_in(s: &Signal, format: WaveFormat) -> String {
     match (s.kind, format) {
-        (SignalKind::Text, WaveFormat::Fst) => {
-            format!("{}[{}:0]", s.full_name(), 8 * FST_TEXT_CHARS - 1)
+        (SignalKind::Text { states }, WaveFormat::Fst) if state_bits(states) > 1 => {
+            format!("{}[{}:0]", s.full_name(), state_bits(states) - 1)
+        }
+        (SignalKind::Fixed { .. }, WaveFormat::Fst) if s.width > 1 => {
+            let (msb, lsb) = s.fixed_range().expect("a fixed-point signal");
+            format!("{}[{msb}:{lsb}]", s.full_name())
         }
         _ if s.is_vector() => format!("{}[{}:0]", s.full_name(), s.width - 1),
         _ => s.full_name(),
@@ -90,8 +97,10 @@ pub fn format_of(s: &Signal) -> (u64, Option<u32>) {
 /// The trace flags and fixed-point shift `s` is shown with in a waveform of `format`.
 pub fn format_in(s: &Signal, format: WaveFormat) -> (u64, Option<u32>) {
     match s.kind {
-        SignalKind::Text if format == WaveFormat::Fst => (TR_ASCII | TR_RJUSTIFY, None),
-        SignalKind::Text => (TR_RJUSTIFY, None),
+        SignalKind::Text { .. } if format == WaveFormat::Fst => {
+            (TR_ENUM | TR_BIN | TR_RJUSTIFY, None)
+        }
+        SignalKind::Text { .. } => (TR_RJUSTIFY, None),
         SignalKind::Bits if s.width == 1 => (TR_BIN | TR_RJUSTIFY, None),
         SignalKind::Bits => (TR_DEC | TR_RJUSTIFY, None),
         SignalKind::Fixed { frac } => (TR_SIGNED | TR_RJUSTIFY | TR_FPDECSHIFT, Some(frac)),
@@ -231,7 +240,7 @@ fn overview_of_cluster(rest: &str, name: &str) -> Option<u32> {
 
 /// The overview: memory port busy and grants, then per cluster its ICU's first and last
 /// stage valid, its ray buffer's occupancy and each CTU's state.
-fn overview(signals: &[Signal]) -> Vec<&Signal> {
+pub(super) fn overview(signals: &[Signal]) -> Vec<&Signal> {
     let mut v: Vec<&Signal> = signals
         .iter()
         .filter(|s| s.scope == "machine.memory" && (s.name == "port_busy" || s.name == "grants"))
@@ -369,7 +378,12 @@ mod tests {
         let signals = [
             sig("machine.memory", "port_busy", 1, SignalKind::Bits),
             sig("machine.memory", "grants", 32, SignalKind::Bits),
-            sig("machine.cluster_0.ctu_0", "state", 1, SignalKind::Text),
+            sig(
+                "machine.cluster_0.ctu_0",
+                "state",
+                1,
+                SignalKind::Text { states: 7 },
+            ),
             sig(
                 "machine.cluster_0.icu.stage_3",
                 "t",
@@ -419,6 +433,21 @@ machine.cluster_0.icu.stage_3.t[14:0]
             .map(|l| format!("{l}\n"))
             .collect();
         assert_eq!(body, want);
+    }
+
+    #[test]
+    fn an_fst_names_states_and_fixed_point_values_by_their_fst_ranges() {
+        let state = sig("m.ctu_0", "state", 1, SignalKind::Text { states: 7 });
+        let t = sig("m.icu", "t", 15, SignalKind::Fixed { frac: 12 });
+        assert_eq!(trace_name_in(&state, WaveFormat::Fst), "m.ctu_0.state[2:0]");
+        assert_eq!(trace_name_in(&state, WaveFormat::Vcd), "m.ctu_0.state");
+        assert_eq!(trace_name_in(&t, WaveFormat::Fst), "m.icu.t[2:-12]");
+        assert_eq!(trace_name_in(&t, WaveFormat::Vcd), "m.icu.t[14:0]");
+        assert_eq!(
+            format_in(&state, WaveFormat::Fst),
+            (TR_ENUM | TR_BIN | TR_RJUSTIFY, None)
+        );
+        assert_eq!(format_in(&state, WaveFormat::Vcd), (TR_RJUSTIFY, None));
     }
 
     #[test]

@@ -1,5 +1,6 @@
 //! Waveforms of the machine: a [`Probe`] ([`WaveWriter`]) that streams the machine's signals
-//! into a VCD or an FST file, and the GTKWave save file beside it ([`gtkw`]).
+//! into a VCD or an FST file, and the GTKWave save file and Surfer command file beside it
+//! ([`gtkw`], [`sucl`]).
 //!
 //! The first sample declares every signal (`signal`: one scope per unit); each sample after
 //! it is one flat value array with the positions whose value changed since the last (the
@@ -21,11 +22,11 @@ pub mod gtkw;
 mod options;
 mod signal;
 mod stream;
+pub mod sucl;
 mod vcd;
 
-pub use fst::FST_TEXT_CHARS;
 pub use options::{FstPack, ScopeFilter, WaveFormat, WaveOptions, Window, DEFAULT_WAVE_LIMIT};
-pub use signal::{Signal, SignalKind, WaveSummary};
+pub use signal::{state_bits, Signal, SignalKind, WaveSummary};
 
 use crate::error::{Error, Result};
 use crate::output::TempFile;
@@ -297,9 +298,12 @@ impl Probe for WaveWriter {
                 let (kind, names) = match d.kind {
                     HwKind::Bits => (SignalKind::Bits, Vec::new()),
                     HwKind::Fixed { frac } => (SignalKind::Fixed { frac }, Vec::new()),
-                    HwKind::Text(names) => {
-                        (SignalKind::Text, names.iter().map(|n| token(n)).collect())
-                    }
+                    HwKind::Text(names) => (
+                        SignalKind::Text {
+                            states: names.len() as u32,
+                        },
+                        names.iter().map(|n| token(n)).collect(),
+                    ),
                 };
                 Slot {
                     sig: Signal {

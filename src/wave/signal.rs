@@ -10,8 +10,9 @@ use std::path::PathBuf;
 pub enum SignalKind {
     /// An unsigned value.
     Bits,
-    /// A string: an FSM state name.
-    Text,
+    /// A string: an FSM state name, one of `states` names (a VCD string; in an FST the
+    /// state's index in [`state_bits`] bits, named by an enum table).
+    Text { states: u32 },
     /// Raw signed fixed point with `frac` fractional bits.
     Fixed { frac: u32 },
 }
@@ -33,10 +34,28 @@ impl Signal {
         format!("{}.{}", self.scope, self.name)
     }
 
+    /// A fixed-point signal's range with its binary point, `(msb, lsb)` = `(w-1-frac, -frac)`
+    /// (`t[2:-12]` for 15 bits with 12 fractional): the FST declares it in the name, so a
+    /// viewer reading the range (Surfer, through wellen) scales the value. None for others.
+    pub fn fixed_range(&self) -> Option<(i64, i64)> {
+        match self.kind {
+            SignalKind::Fixed { frac } => {
+                Some((self.width as i64 - 1 - frac as i64, -(frac as i64)))
+            }
+            _ => None,
+        }
+    }
+
     /// True when declared as a vector (`wire` wider than one bit, with a `[w-1:0]` range).
     pub fn is_vector(&self) -> bool {
-        self.kind != SignalKind::Text && self.width > 1
+        !matches!(self.kind, SignalKind::Text { .. }) && self.width > 1
     }
+}
+
+/// The bits an FSM state of `states` names takes in an FST: room for every index and one
+/// more, the enum table's "-" (any other value); at least one.
+pub fn state_bits(states: u32) -> u32 {
+    (u32::BITS - states.leading_zeros()).max(1)
 }
 
 /// What a finished waveform (VCD or FST) holds.

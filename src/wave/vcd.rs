@@ -276,7 +276,7 @@ fn declare<W: Write>(
         for &i in &c.vars {
             let (s, names) = (&slots[i].sig, &slots[i].names);
             let id = match s.kind {
-                SignalKind::Text => w.add_var(VarType::String, 1, &s.name, None)?,
+                SignalKind::Text { .. } => w.add_var(VarType::String, 1, &s.name, None)?,
                 _ if s.width == 1 => w.add_wire(1, &s.name)?,
                 _ => w.add_var(
                     VarType::Wire,
@@ -402,7 +402,7 @@ impl LineFormat {
         id_nl[..id.len()].copy_from_slice(id);
         id_nl[id.len()] = b'\n';
         let class = match s.kind {
-            SignalKind::Text => LineClass::Text,
+            SignalKind::Text { .. } => LineClass::Text,
             _ if s.width == 1 => LineClass::Bit,
             _ => LineClass::Vector,
         };

@@ -186,10 +186,16 @@ pub(crate) fn update_header(
 
 const HIERARCHY_TPE_VCD_SCOPE: u8 = 254;
 const HIERARCHY_TPE_VCD_UP_SCOPE: u8 = 255;
-// const HIERARCHY_TPE_VCD_ATTRIBUTE_BEGIN: u8 = 252;
-// const HIERARCHY_TPE_VCD_ATTRIBUTE_END: u8 = 253;
+const HIERARCHY_TPE_VCD_ATTRIBUTE_BEGIN: u8 = 252;
+const HIERARCHY_TPE_VCD_ATTRIBUTE_END: u8 = 253;
 const HIERARCHY_NAME_MAX_SIZE: usize = 512;
-// const HIERARCHY_ATTRIBUTE_MAX_SIZE: usize = 65536 + 4096;
+const HIERARCHY_ATTRIBUTE_MAX_SIZE: usize = 65536 + 4096;
+/// `FST_AT_MISC`, the attribute type of an enum table.
+pub(crate) const ATTRIBUTE_TYPE_MISC: u8 = 0;
+/// `FST_MT_ENUMTABLE` (fstapi.h's `fstMiscType`: comment 0, envvar 1, supvar 2, pathname 3,
+/// sourcestem 4, sourceistem 5, valuelist 6, enumtable 7), the misc attribute subtype of an
+/// enum table and of a reference to one.
+pub(crate) const MISC_TYPE_ENUM_TABLE: u8 = 7;
 
 pub(crate) fn write_hierarchy_bytes(output: &mut (impl Write + Seek), bytes: &[u8]) -> Result<()> {
     write_u8(output, BlockType::HierarchyLZ4 as u8)?;
@@ -231,6 +237,67 @@ pub(crate) fn write_hierarchy_scope(
 
 pub(crate) fn write_hierarchy_up_scope(output: &mut impl Write) -> Result<()> {
     write_u8(output, HIERARCHY_TPE_VCD_UP_SCOPE)
+}
+
+/// An attribute's begin, as fstapi.c's `fstWriterSetAttrBegin` writes it: the entry type,
+/// the attribute type and subtype, the name (NUL-terminated) and the argument (a varint).
+/// shellsim: added for enum tables.
+pub(crate) fn write_hierarchy_attribute_begin(
+    output: &mut impl Write,
+    tpe: u8,
+    subtype: u8,
+    name: &str,
+    arg: u64,
+) -> Result<()> {
+    if name.len() > HIERARCHY_ATTRIBUTE_MAX_SIZE {
+        return Err(FstWriteError::StringTooLong(
+            HIERARCHY_ATTRIBUTE_MAX_SIZE,
+            name.to_string(),
+        ));
+    }
+    write_u8(output, HIERARCHY_TPE_VCD_ATTRIBUTE_BEGIN)?;
+    write_u8(output, tpe)?;
+    write_u8(output, subtype)?;
+    write_c_str(output, name)?;
+    write_variant_u64(output, arg)?;
+    Ok(())
+}
+
+/// An attribute's end (`fstWriterSetAttrEnd`). shellsim: added for enum tables.
+pub(crate) fn write_hierarchy_attribute_end(output: &mut impl Write) -> Result<()> {
+    write_u8(output, HIERARCHY_TPE_VCD_ATTRIBUTE_END)
+}
+
+/// `s` escaped as fstapi.c's `fstUtilityBinToEsc` escapes an enum table's literals and
+/// values (so none holds a space): C escapes for `\a \b \f \n \r \t \v ' " \\ ?`, any
+/// other byte outside `!`..=`~` as a backslash and three octal digits.
+pub(crate) fn escape_enum_text(s: &str, out: &mut String) {
+    for &b in s.as_bytes() {
+        let c = match b {
+            0x07 => Some('a'),
+            0x08 => Some('b'),
+            0x0c => Some('f'),
+            b'\n' => Some('n'),
+            b'\r' => Some('r'),
+            b'\t' => Some('t'),
+            0x0b => Some('v'),
+            b'\'' | b'"' | b'\\' | b'?' => Some(b as char),
+            _ => None,
+        };
+        match c {
+            Some(c) => {
+                out.push('\\');
+                out.push(c);
+            }
+            None if b > b' ' && b <= b'~' => out.push(b as char),
+            None => {
+                out.push('\\');
+                for shift in [6, 3, 0] {
+                    out.push((b'0' + ((b >> shift) & 7)) as char);
+                }
+            }
+        }
+    }
 }
 
 pub(crate) fn write_hierarchy_var(

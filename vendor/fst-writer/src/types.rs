@@ -42,6 +42,22 @@ impl FstSignalId {
     }
 }
 
+/// An enum table declared in the header ([`FstHeaderWriter::enum_table`](crate::FstHeaderWriter::enum_table)):
+/// fstapi.c's `fstEnumHandle`, numbered from 1 in declaration order. shellsim: added.
+#[derive(Debug, Copy, Clone, Ord, PartialOrd, Eq, PartialEq, Hash)]
+pub struct FstEnumHandle(NonZeroU32);
+
+impl FstEnumHandle {
+    pub(crate) fn from_index(index: u32) -> Self {
+        FstEnumHandle(NonZeroU32::new(index).unwrap())
+    }
+
+    /// The raw value used in the FST file format.
+    pub(crate) fn to_index(self) -> u32 {
+        self.0.get()
+    }
+}
+
 #[derive(Debug, Copy, Clone, PartialEq)]
 pub struct FstSignalType(SignalType);
 

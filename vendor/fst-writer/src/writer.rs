@@ -9,13 +9,15 @@
 
 use crate::buffer::{SignalBuffer, full_length_value};
 use crate::io::{
-    FstCompression, HeaderFinishInfo, Section, SectionScratch, update_header, write_geometry,
-    write_header_meta_data, write_hierarchy_bytes, write_hierarchy_scope, write_hierarchy_up_scope,
-    write_hierarchy_var, write_value_change_section,
+    ATTRIBUTE_TYPE_MISC, FstCompression, HeaderFinishInfo, MISC_TYPE_ENUM_TABLE, Section,
+    SectionScratch, escape_enum_text, update_header, write_geometry, write_header_meta_data,
+    write_hierarchy_attribute_begin, write_hierarchy_attribute_end, write_hierarchy_bytes,
+    write_hierarchy_scope, write_hierarchy_up_scope, write_hierarchy_var,
+    write_value_change_section,
 };
 use crate::{
-    FstInfo, FstScopeType, FstSignalId, FstSignalType, FstVarDirection, FstVarType, FstWriteError,
-    Result,
+    FstEnumHandle, FstInfo, FstScopeType, FstSignalId, FstSignalType, FstVarDirection, FstVarType,
+    FstWriteError, Result,
 };
 
 pub fn open_fst<P: AsRef<std::path::Path>>(
@@ -33,6 +35,8 @@ pub struct FstHeaderWriter<W: std::io::Write + std::io::Seek> {
     scope_depth: u64,
     var_count: u64,
     scope_count: u64,
+    /// Enum tables declared (the last handle).
+    enum_count: u32,
 }
 
 impl FstHeaderWriter<std::io::BufWriter<std::fs::File>> {
@@ -59,6 +63,7 @@ impl<W: std::io::Write + std::io::Seek> FstHeaderWriter<W> {
             scope_depth: 0,
             var_count: 0,
             scope_count: 0,
+            enum_count: 0,
         })
     }
     pub fn scope(
@@ -95,6 +100,68 @@ impl<W: std::io::Write + std::io::Seek> FstHeaderWriter<W> {
             let id = FstSignalId::from_index(self.signals.len() as u32);
             Ok(id)
         }
+    }
+
+    /// Declares an enum table (fstapi.c's `fstWriterCreateEnumTable`, then
+    /// `fstWriterSetAttrEnd`): `name` (no spaces) and its `(literal, value)` pairs, each
+    /// value the bits of its code as '0'/'1' (MSB first), left-padded with '0' to
+    /// `min_valbits`; literals and values are escaped as fstapi.c does. A variable declared
+    /// with [`var_with_enum`](Self::var_with_enum) and the returned handle shows its values
+    /// by these names (GTKWave, Surfer). shellsim: added.
+    pub fn enum_table(
+        &mut self,
+        name: &str,
+        min_valbits: u32,
+        entries: &[(&str, &str)],
+    ) -> Result<FstEnumHandle> {
+        debug_assert!(!name.contains(' '), "an enum table's name holds no space");
+        let mut text = format!("{name} {}", entries.len());
+        for (literal, _) in entries {
+            text.push(' ');
+            escape_enum_text(literal, &mut text);
+        }
+        for (_, value) in entries {
+            text.push(' ');
+            for _ in value.len()..min_valbits as usize {
+                text.push('0');
+            }
+            escape_enum_text(value, &mut text);
+        }
+        self.enum_count += 1;
+        let handle = FstEnumHandle::from_index(self.enum_count);
+        write_hierarchy_attribute_begin(
+            &mut self.hierarchy_buf,
+            ATTRIBUTE_TYPE_MISC,
+            MISC_TYPE_ENUM_TABLE,
+            &text,
+            handle.to_index() as u64,
+        )?;
+        write_hierarchy_attribute_end(&mut self.hierarchy_buf)?;
+        Ok(handle)
+    }
+
+    /// [`var`](Self::var) shown through the enum table `table`: the reference to it
+    /// (fstapi.c's `fstWriterEmitEnumTableRef`), the variable, then an attribute end.
+    /// shellsim: added.
+    pub fn var_with_enum(
+        &mut self,
+        name: impl AsRef<str>,
+        signal_tpe: FstSignalType,
+        tpe: FstVarType,
+        dir: FstVarDirection,
+        table: FstEnumHandle,
+    ) -> Result<FstSignalId> {
+        debug_assert!(table.to_index() <= self.enum_count, "an undeclared table");
+        write_hierarchy_attribute_begin(
+            &mut self.hierarchy_buf,
+            ATTRIBUTE_TYPE_MISC,
+            MISC_TYPE_ENUM_TABLE,
+            "",
+            table.to_index() as u64,
+        )?;
+        let id = self.var(name, signal_tpe, tpe, dir, None)?;
+        write_hierarchy_attribute_end(&mut self.hierarchy_buf)?;
+        Ok(id)
     }
 
     pub fn finish(mut self) -> Result<FstBodyWriter<W>> {
@@ -610,6 +677,47 @@ mod tests {
     use super::*;
     use crate::{FstFileType, FstInfo};
     use proptest::prelude::*;
+
+    /// An enum table is fstapi.c's attribute (begin: type 252, FST_AT_MISC, FST_MT_ENUMTABLE,
+    /// "name count literals values" with the values padded to `min_valbits`, the handle as a
+    /// varint; then an end, 253), and a variable using it is wrapped in a reference (an
+    /// attribute begin with an empty name and the handle) and an end.
+    #[test]
+    fn an_enum_table_is_fstapis_attribute() {
+        let info = FstInfo {
+            start_time: 0,
+            timescale_exponent: -9,
+            version: "test".into(),
+            date: String::new(),
+            file_type: FstFileType::Verilog,
+        };
+        let mut h = FstHeaderWriter::write_to_mem(&info).unwrap();
+        let t = h
+            .enum_table("fsm", 2, &[("IDLE", "0"), ("a b", "1"), ("\"x\"", "10")])
+            .unwrap();
+        assert_eq!(t.to_index(), 1);
+        let start = h.hierarchy_buf.get_ref().len();
+        let id = h
+            .var_with_enum(
+                "state",
+                FstSignalType::bit_vec(2),
+                FstVarType::Wire,
+                FstVarDirection::Implicit,
+                t,
+            )
+            .unwrap();
+        assert_eq!(id.to_index(), 1);
+        let bytes = h.hierarchy_buf.get_ref().clone();
+        let mut want = vec![252u8, 0, 7];
+        want.extend_from_slice(b"fsm 3 IDLE a\\040b \\\"x\\\" 00 01 10\0");
+        want.extend_from_slice(&[1, 253]);
+        assert_eq!(&bytes[..start], &want[..]);
+        let mut var = vec![252u8, 0, 7, 0, 1];
+        var.extend_from_slice(&[FstVarType::Wire as u8, FstVarDirection::Implicit as u8]);
+        var.extend_from_slice(b"state\0");
+        var.extend_from_slice(&[2, 0, 253]);
+        assert_eq!(&bytes[start..], &var[..]);
+    }
 
     /// An FST in memory of signals of widths `lens` (each below 64 bits, or a text of 128
     /// characters when 0), written from `changes` (signal, value, next time?), flushed every
