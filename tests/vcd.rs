@@ -958,6 +958,21 @@ fn changes_of(text: &str) -> BTreeMap<String, Vec<(u64, String)>> {
     out
 }
 
+/// The FST at `path` as `fst2vcd -e` writes it (enum tables named), or `None` where
+/// `fst2vcd` is missing outside CI (see [`have_fst2vcd`]).
+fn fst2vcd_text(path: &Path) -> Option<String> {
+    if !have_fst2vcd() {
+        return None;
+    }
+    let o = std::process::Command::new("fst2vcd")
+        .arg("-e")
+        .arg(path)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "fst2vcd -e {}", path.display());
+    Some(String::from_utf8(o.stdout).unwrap())
+}
+
 /// True when GTKWave's `fst2vcd` runs (.ci/run installs it with gtkwave).
 fn have_fst2vcd() -> bool {
     let ok = std::process::Command::new("fst2vcd")
@@ -991,16 +1006,10 @@ fn fst_matches_vcd(opts: WaveOptions) {
         from_vcd,
         "wellen's reading of the FST"
     );
-    if !have_fst2vcd() {
+    let Some(text) = fst2vcd_text(&f.path) else {
         return;
-    }
-    let o = std::process::Command::new("fst2vcd")
-        .arg("-e")
-        .arg(&f.path)
-        .output()
-        .unwrap();
-    assert!(o.status.success());
-    let from_fst = changes_of(&String::from_utf8(o.stdout).unwrap());
+    };
+    let from_fst = changes_of(&text);
     assert_eq!(
         from_fst.keys().collect::<Vec<_>>(),
         from_vcd.keys().collect::<Vec<_>>()
@@ -1206,16 +1215,9 @@ fn the_fsts_fsm_states_carry_enum_tables_with_the_vcds_names() {
             s.full_name()
         );
     }
-    if !have_fst2vcd() {
+    let Some(text) = fst2vcd_text(&f.path) else {
         return;
-    }
-    let o = std::process::Command::new("fst2vcd")
-        .arg("-e")
-        .arg(&f.path)
-        .output()
-        .unwrap();
-    assert!(o.status.success());
-    let text = String::from_utf8(o.stdout).unwrap();
+    };
     let table = format!(
         "$attrbegin misc 07 state {} {} - {} 1 $end",
         names.len() + 1,
