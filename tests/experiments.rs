@@ -360,3 +360,47 @@ fn the_balanced_configuration_keeps_eight_icus_busy() {
         "paper.toml {paper:.3} at or above balanced.toml {on:.3}"
     );
 }
+
+/// Issue 33: the queueing network (`experiment levels`) estimates the cycle model's cycles
+/// within 5 % on every machine of the speedup experiment up to 4 ICUs, on the paper's
+/// machine (one job per cycle from the CTU) and on balanced.toml (bundles, overlapped joins,
+/// ray cuts), with balancing off and on; each ICU's utilization within 0.08, and no work moves
+/// without balancing.
+#[test]
+fn the_queue_level_estimates_the_cycle_level_within_five_percent() {
+    let scene = common::load("scene2.json");
+    let path = common::scene_path("scene2.json");
+    for name in ["paper", "balanced"] {
+        let base = common::config(name);
+        let w = Workload {
+            scene: &scene,
+            file: &path,
+            source: 0,
+            base: &base,
+        };
+        let rows = experiment::levels::levels(&w, &[1, 2, 4], 10).unwrap();
+        assert_eq!(rows.len(), 3 * 2 + 2, "{name}");
+        for r in &rows {
+            assert!(
+                r.error.abs() <= 0.05,
+                "{name} {}: queue {} vs cycle {} cycles ({:+.1} %)",
+                r.machine,
+                r.queue_cycles,
+                r.cycles,
+                100.0 * r.error
+            );
+            assert!(
+                r.icu_utilization_error <= 0.08,
+                "{name} {}: {r:?}",
+                r.machine
+            );
+            if !r.balance {
+                assert_eq!(r.queue_jobs_moved, 0, "{name} {}", r.machine);
+            }
+        }
+        assert!(
+            rows.iter().any(|r| r.balance && r.queue_jobs_moved > 0),
+            "{name}"
+        );
+    }
+}

@@ -22,6 +22,7 @@ pub mod datapath;
 pub mod link;
 pub mod machine;
 pub mod msg;
+pub mod queue;
 pub mod trace;
 pub mod units;
 

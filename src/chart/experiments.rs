@@ -385,3 +385,77 @@ pub fn speedup_svg(title: &str, rows: &[SpeedupRow]) -> Result<String> {
     }
     Ok(out)
 }
+
+/// The queue level's error against the cycle level, one bar per machine (`(label, error)`,
+/// error a fraction), with the ±5 % and ±10 % targets drawn.
+pub fn levels_svg(title: &str, rows: &[(String, f64)]) -> Result<String> {
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, (900, 480)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        let n = rows.len().max(1);
+        let lim = rows
+            .iter()
+            .map(|r| 100.0 * r.1.abs())
+            .fold(12.0f64, f64::max)
+            * 1.1;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 16))
+            .margin(12)
+            .x_label_area_size(120)
+            .y_label_area_size(55)
+            .build_cartesian_2d((0..n).into_segmented(), -lim..lim)
+            .map_err(draw_err)?;
+        chart
+            .configure_mesh()
+            .disable_x_mesh()
+            .y_desc("queue − cycle, % of the cycle level's cycles")
+            .x_labels(n)
+            .x_label_formatter(&|x| match x {
+                SegmentValue::CenterOf(i) => rows.get(*i).map_or(String::new(), |r| r.0.clone()),
+                _ => String::new(),
+            })
+            .x_label_style(
+                ("sans-serif", 11)
+                    .into_font()
+                    .transform(FontTransform::Rotate90),
+            )
+            .y_label_formatter(&|y| format!("{y:+.0}"))
+            .label_style(("sans-serif", 12))
+            .draw()
+            .map_err(draw_err)?;
+        for (v, color, name) in [
+            (5.0, BOUND, "±5 % (mean target)"),
+            (10.0, OFF, "±10 % (max)"),
+        ] {
+            for s in [v, -v] {
+                let series = chart
+                    .draw_series(LineSeries::new(
+                        [(SegmentValue::Exact(0), s), (SegmentValue::Exact(n), s)],
+                        color.stroke_width(1),
+                    ))
+                    .map_err(draw_err)?;
+                if s > 0.0 {
+                    series.label(name).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 16, y)], color.stroke_width(2))
+                    });
+                }
+            }
+        }
+        chart
+            .draw_series(rows.iter().enumerate().map(|(i, r)| {
+                let e = 100.0 * r.1;
+                Rectangle::new(
+                    [
+                        (SegmentValue::Exact(i), 0.0),
+                        (SegmentValue::Exact(i + 1), e),
+                    ],
+                    ON.mix(0.8).filled(),
+                )
+            }))
+            .map_err(draw_err)?;
+        legend(&mut chart, SeriesLabelPosition::UpperRight, Legend::Boxed).map_err(draw_err)?;
+        root.present().map_err(draw_err)?;
+    }
+    Ok(out)
+}

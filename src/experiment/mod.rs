@@ -12,6 +12,7 @@
 //! an experiment with a mismatch is an error, not a data point).
 //! **Invariant:** `Bound::cycles() <= cycles` for every run (tested).
 
+pub mod levels;
 pub mod levers;
 pub mod outputs;
 pub mod report;
@@ -289,16 +290,30 @@ pub fn measure(
     cfg: &MachineConfig,
     ratio: usize,
 ) -> Result<Point> {
+    Ok(Point::new(
+        &simulate_checked(w, input, cfg, ratio)?,
+        cfg,
+        ratio,
+    ))
+}
+
+/// Runs `cfg` on `input` and returns its statistics; a ray that differs from the untimed
+/// model is an error.
+pub fn simulate_checked(
+    w: &Workload,
+    input: &MachineInput,
+    cfg: &MachineConfig,
+    ratio: usize,
+) -> Result<RunStats> {
     validate(cfg)?;
-    let out = run::simulate(input, &w.scene.name, cfg, &spec(w, ratio), None)?;
-    let s = &out.stats;
+    let s = run::simulate(input, &w.scene.name, cfg, &spec(w, ratio), None)?.stats;
     if s.mismatches_vs_fixed > 0 {
         return Err(Error::Check(format!(
             "{}: {} clusters, ratio {ratio}, balance {}: {} rays differ from the untimed model",
             s.scene, cfg.machine.clusters, cfg.balance.enabled, s.mismatches_vs_fixed
         )));
     }
-    Ok(Point::new(s, cfg, ratio))
+    Ok(s)
 }
 
 /// The same sectors as `sectors` on one cluster whose CTUs are all of them (cluster-major):

@@ -1,7 +1,7 @@
 //! What an experiment writes: its CSV, its SVG (drawn by [`crate::chart::experiments`]) and
 //! a short summary for the terminal, for `shellsim experiment` and `shellsim paper`.
 
-use super::{stem, Point, SpeedupRow, WorkItemRows, Workload};
+use super::{levels, stem, Point, SpeedupRow, WorkItemRows, Workload};
 use crate::chart::experiments as chart;
 use crate::error::Result;
 use crate::output::write_atomic;
@@ -19,6 +19,9 @@ pub enum Which {
     Workitem,
     /// Speedup T(1)/T(P) for P = 1, 2, 4, 8, with and without balancing, ideal and bound.
     Speedup,
+    /// The speedup experiment's machines at the queue level against the cycle level: the
+    /// queueing network's error and its wall time.
+    Levels,
 }
 
 impl Which {
@@ -28,6 +31,7 @@ impl Which {
             Which::Efficiency => "efficiency",
             Which::Workitem => "workitem",
             Which::Speedup => "speedup",
+            Which::Levels => "levels",
         }
     }
 }
@@ -58,6 +62,7 @@ pub fn experiment(which: Which, w: &Workload) -> Result<Outputs> {
             &super::work_item(w, WORK_ITEM_CLUSTERS, PAPER_RATIO, &WORK_ITEMS)?,
         ),
         Which::Speedup => speedup_outputs(w, &super::speedup(w, &SPEEDUP_CLUSTERS, PAPER_RATIO)?),
+        Which::Levels => levels_outputs(w, &levels::levels(w, &SPEEDUP_CLUSTERS, PAPER_RATIO)?),
     }
 }
 
@@ -69,6 +74,20 @@ fn stem_of(which: Which, w: &Workload) -> String {
 /// name made file-name safe.
 pub fn stem_of_scene(which: Which, scene: &crate::scene::Scene) -> String {
     format!("{}-{}", which.name(), stem(&scene.name))
+}
+
+/// CSV, SVG and summary of the levels experiment.
+pub fn levels_outputs(w: &Workload, rows: &[levels::LevelRow]) -> Result<Outputs> {
+    let title = format!(
+        "{} from patch {}: the queue level's cycles against the cycle level's",
+        w.scene.name, w.source
+    );
+    Ok(Outputs {
+        stem: stem_of(Which::Levels, w),
+        csv: levels::csv(rows),
+        svg: levels::svg(&title, rows)?,
+        summary: levels::summary(rows),
+    })
 }
 
 /// CSV, SVG and summary of the efficiency experiment's points.

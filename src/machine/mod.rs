@@ -3,4 +3,5 @@
 //! job ([`default_job`]).
 
 pub mod default_job;
+pub mod queue;
 pub mod run;

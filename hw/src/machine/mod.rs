@@ -86,6 +86,31 @@ pub struct Machine<'a> {
     last_progress_cycle: u64,
 }
 
+/// CTU `local` of cluster `cluster` on `cfg` (hardware units) with formats `f`, casting from
+/// `source`; `shell_raw` is `cfg.shell_raw()`.
+pub fn ctu_params(
+    cfg: &MachineConfig,
+    f: &crate::Formats,
+    shell_raw: i64,
+    source: u32,
+    cluster: usize,
+    local: usize,
+) -> CtuParams {
+    CtuParams {
+        cluster: cluster as u16,
+        local: local as u16,
+        source,
+        dda_cycles_per_step: cfg.machine.dda_cycles_per_step,
+        subshell_max_patches: cfg.machine.subshell_max_patches,
+        shell_raw,
+        t_frac: f.t.frac_bits,
+        t_max: f.t.max_raw() as i64,
+        bundle: cfg.machine.job_source == JobSource::Bundle,
+        overlap: cfg.machine.overlap_joins,
+        scan_ids_per_cycle: cfg.machine.scan_ids_per_cycle,
+    }
+}
+
 impl<'a> Machine<'a> {
     /// A machine for `sectors[cluster][ctu]` = the sector's ray ids (ascending), casting from
     /// patch `source` (excluded from every sector's loads).
@@ -128,19 +153,7 @@ impl<'a> Machine<'a> {
                     .iter()
                     .enumerate()
                     .map(|(j, r)| {
-                        let p = CtuParams {
-                            cluster: c as u16,
-                            local: j as u16,
-                            source,
-                            dda_cycles_per_step: cfg.machine.dda_cycles_per_step,
-                            subshell_max_patches: cfg.machine.subshell_max_patches,
-                            shell_raw,
-                            t_frac: f.t.frac_bits,
-                            t_max: f.t.max_raw() as i64,
-                            bundle,
-                            overlap: cfg.machine.overlap_joins,
-                            scan_ids_per_cycle: cfg.machine.scan_ids_per_cycle,
-                        };
+                        let p = ctu_params(&cfg, f, shell_raw, source, c, j);
                         Ctu::new(p, r, rays, &scene.cells, scene.patches.len())
                             .skipping(scene.twins_of(Some(source)))
                     })
