@@ -59,10 +59,11 @@ pub fn cast(
     let mut hits = Vec::with_capacity(set.len());
     let mut counts = TraceCounts64::default();
     for block in set.rays.chunks(CHUNK * 16) {
-        let part: Vec<(Option<Hit>, TraceCounts)> = block
+        let mut part = vec![(None, TraceCounts::default()); block.len()];
+        block
             .par_chunks(CHUNK)
-            .flat_map_iter(|c| c.iter().map(|r| tracer.trace_counted(r, source)))
-            .collect();
+            .zip(part.par_chunks_mut(CHUNK))
+            .for_each(|(rays, out)| tracer.trace_packet(rays, source, out));
         for (h, c) in part {
             hits.push(h);
             counts.add(c);

@@ -595,6 +595,22 @@ impl Tracer {
         self.walk::<true>(ray, exclude)
     }
 
+    /// Nearest hits of a bundle of rays (one source's rays, say), with the work each took:
+    /// `out[i]` is `trace_counted(&rays[i], exclude)`, bit for bit — the bulk entry point
+    /// ([`crate::reference::cast::cast`] traces through it). Each ray walks on its own (see
+    /// the module's note on bundles).
+    pub fn trace_packet(
+        &self,
+        rays: &[Ray],
+        exclude: Option<u32>,
+        out: &mut [(Option<Hit>, TraceCounts)],
+    ) {
+        assert_eq!(rays.len(), out.len(), "one result per ray");
+        for (r, o) in rays.iter().zip(out) {
+            *o = self.walk::<true>(r, exclude);
+        }
+    }
+
     /// Nearest hit by 3D-DDA: tests each cell's patches in order of increasing t (each patch
     /// once, see [`Mailbox`]) and stops once the next cell starts beyond the best hit plus a
     /// slack of 1e-9 of the grid's diagonal — so a hit computed a hair beyond its cell can
