@@ -115,10 +115,11 @@ fn main() {
         dump(Path::new(&dir), &scene, &bundles, &a);
     }
     println!(
-        "{{\"scene\":\"{}\",\"patches\":{},\"cell\":{},\"rays\":{},\"one_s\":{},\"packet_s\":{},\"dda_only_s\":{},\
+        "{{\"scene\":\"{}\",\"patches\":{},\"scale\":{},\"cell\":{},\"rays\":{},\"one_s\":{},\"packet_s\":{},\"dda_only_s\":{},\
          \"identical\":{},\"cells_per_ray\":{:.2},\"nonempty_per_ray\":{:.2},\"tests_per_ray\":{:.2}}}",
         scene.name,
         n,
+        scene.bounds.scale(),
         cell,
         rays,
         t_one,
