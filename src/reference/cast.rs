@@ -58,13 +58,14 @@ pub fn cast(
     const CHUNK: usize = 4096;
     let mut hits = Vec::with_capacity(set.len());
     let mut counts = TraceCounts64::default();
+    let mut buf = vec![(None, TraceCounts::default()); set.len().min(CHUNK * 16)];
     for block in set.rays.chunks(CHUNK * 16) {
-        let mut part = vec![(None, TraceCounts::default()); block.len()];
+        let part = &mut buf[..block.len()];
         block
             .par_chunks(CHUNK)
             .zip(part.par_chunks_mut(CHUNK))
             .for_each(|(rays, out)| tracer.trace_packet(rays, source, out));
-        for (h, c) in part {
+        for &(h, c) in &*part {
             hits.push(h);
             counts.add(c);
         }
