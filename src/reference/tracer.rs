@@ -39,11 +39,11 @@
 //! committed scene and stability case (tests/grid_vs_brute.rs). Each ray still walks on its
 //! own: issue 36 measured the packet forms against it on one thread (the Cornell box and the
 //! Cornell room at 1,183 and 21,175 patches, 969 rays from 50 sources) and all were slower —
-//! four rays' walks interleaved in lanes 35–55 %, the DDA step on selects instead of the
-//! branch on the axis (what lanes need) 36–47 %, rays regrouped by origin cell 5–20 %, an
-//! exact jump over empty cells (a Chebyshev distance field; the counts kept by counting the
-//! crossings jumped) 10–37 % — and the bundle's rays share little to vectorize over: ring
-//! neighbours are 4.5° apart and leave their first cell apart, and only 11–18 % of the
+//! four rays' walks interleaved in lanes by 38–57 %, the DDA step on selects instead of the
+//! branch on the axis (what lanes need) by 28–47 %, rays regrouped by origin cell by 5–20 %,
+//! an exact jump over empty cells (a Chebyshev distance field; the counts kept by counting
+//! the crossings jumped) by 11–22 % — and the bundle's rays share little to vectorize over:
+//! ring neighbours are 4.5° apart and leave their first cell apart, and only 11–18 % of the
 //! tests are in a ray's first cell. BENCHMARKS.md has the figures against Embree.
 
 use crate::reference::grid::Grid;
