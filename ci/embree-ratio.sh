@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-#: shellsim's float tracer (one-ray and packet paths) against Embree on the same rays, one run.
+# embree-ratio.sh: shellsim's float tracer (one-ray and packet paths) against Embree on the same rays, in one run.
 #
 # The Cornell box (18 patches), the Cornell room subdivided to 1,183 and 21,175 patches
 # (`scene gen corpus-subdivided-cornell --n 13 / 55`), each with the paper's 969 rings rays

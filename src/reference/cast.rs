@@ -47,8 +47,9 @@ pub struct ReferenceReport {
     pub rays_per_s: f64,
 }
 
-/// Per-ray nearest hits, in ray order, with the work counted. Parallel over rays, but the
-/// result does not depend on the thread count.
+/// Per-ray nearest hits, in ray order, with the work counted: chunks of 4096 rays through
+/// [`Tracer::trace_packet`]. Parallel over chunks, but the result does not depend on the
+/// thread count.
 pub fn cast(
     tracer: &Tracer,
     set: &RaySet,
