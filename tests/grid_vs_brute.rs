@@ -4,14 +4,25 @@
 //! and identical bits of t. A quarter of the rays are adversarial
 //! for the 3D-DDA: origins on cell boundaries, zero direction components, directions with
 //! equal components (ties between axes, paths through cell edges and corners).
+//!
+//! The bundle path, `Tracer::trace_packet`, equals the one-ray `trace_counted` ray for ray —
+//! the same patch, the same bits of t, the same cell and test counts — over every committed
+//! scene and every stability case at the paper's ray count from several sources, and over
+//! generated slanted and millimetre rooms.
 
 mod common;
 
 use glam::DVec3;
+use proptest::prelude::*;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 use rayon::prelude::*;
-use shellsim::reference::tracer::{Ray, Tracer};
+use shellsim::paper::PAPER_RAYS;
+use shellsim::reference::rays::{hemisphere_rays, Directions, Origins};
+use shellsim::reference::tracer::{Hit, Ray, TraceCounts, Tracer};
+use shellsim::scene::gen::corpus;
+use shellsim::Scene;
+use shellsim_hw::config::Length;
 
 /// Rays per scene, and on stress-dense.
 const RAYS: usize = 1_000_000;
@@ -136,4 +147,118 @@ fn every_committed_scene_is_covered() {
     let mut listed: Vec<String> = common::COMMITTED.iter().map(|s| s.to_string()).collect();
     listed.sort();
     assert_eq!(files, listed);
+}
+
+/// The first ray of `rays` on which `trace_packet` and `trace_counted` differ (patch, bits
+/// of t or counts), described.
+fn packet_difference(tr: &Tracer, rays: &[Ray], source: Option<u32>) -> Option<String> {
+    let mut packet = vec![(None, TraceCounts::default()); rays.len()];
+    tr.trace_packet(rays, source, &mut packet);
+    let key = |(h, c): &(Option<Hit>, TraceCounts)| (h.map(|h| (h.patch, h.t.to_bits())), *c);
+    rays.iter()
+        .zip(&packet)
+        .enumerate()
+        .find_map(|(i, (r, p))| {
+            let one = tr.trace_counted(r, source);
+            (key(&one) != key(p)).then(|| format!("ray {i} {r:?}: one-ray {one:?}, packet {p:?}"))
+        })
+}
+
+/// `trace_packet` equals `trace_counted` on `scene`'s hemisphere bundles from `sources`
+/// spread over its patches (the paper's ray count, rings and Malley directions), on the
+/// sized grid and the paper's (scale / 20); `extra` more rays from `extra_source`.
+fn packet_equals_one_ray(
+    name: &str,
+    scene: &Scene,
+    sources: usize,
+    extra: &[Ray],
+    extra_source: u32,
+) {
+    let n = scene.patches.len();
+    for cell in [
+        shellsim::config::cell_size(Length::Auto, scene.size()),
+        scene.bounds.scale() / 20.0,
+    ] {
+        let tr = Tracer::new(scene, cell).unwrap();
+        let bad: Vec<String> = (0..sources.min(n))
+            .into_par_iter()
+            .flat_map_iter(|k| {
+                let src = k * n / sources.min(n);
+                [Directions::Rings, Directions::Malley].map(|dirs| {
+                    let set = hemisphere_rays(
+                        &scene.patches[src],
+                        PAPER_RAYS,
+                        dirs,
+                        Origins::Patch,
+                        k as u64,
+                    );
+                    packet_difference(&tr, &set.rays, Some(src as u32))
+                        .map(|d| format!("source {src} {dirs:?}: {d}"))
+                })
+            })
+            .flatten()
+            .chain(packet_difference(&tr, extra, Some(extra_source)))
+            .collect();
+        assert!(
+            bad.is_empty(),
+            "{name}, cell {cell}: {} bundles differ; first: {}",
+            bad.len(),
+            bad[0]
+        );
+    }
+}
+
+#[test]
+fn packet_equals_one_ray_on_every_committed_scene() {
+    let mut files: Vec<&str> = common::COMMITTED.to_vec();
+    files.push("cornell-public.obj");
+    for file in files {
+        let scene = Scene::load(&common::scene_path(file)).unwrap_or_else(|e| panic!("{e}"));
+        packet_equals_one_ray(file, &scene, 8, &[], 0);
+    }
+}
+
+#[test]
+fn packet_equals_one_ray_on_every_stability_case() {
+    for (name, _) in shellsim::stability::cases::CASES {
+        let case = shellsim::stability::cases::generate_case(name, 2000, 1).unwrap();
+        packet_equals_one_ray(name, &case.scene, 4, &case.rays, case.source);
+    }
+}
+
+#[test]
+fn packet_equals_one_ray_in_millimetres() {
+    packet_equals_one_ray(
+        "millimetre cornell",
+        &corpus::millimetre_cornell(),
+        12,
+        &[],
+        0,
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Slanted rooms (every wall oblique to the grid), subdivided, scaled to millimetres or
+    /// not: bundles from random sources, directions random.
+    #[test]
+    fn packet_equals_one_ray_in_slanted_rooms(seed in 0u64..1_000_000, n in 1usize..7, mm in any::<bool>(), src in any::<prop::sample::Index>()) {
+        let mut scene = corpus::slanted_room_subdivided(seed, n);
+        if mm {
+            let k = 559.2;
+            scene.bounds.lo *= k;
+            scene.bounds.hi *= k;
+            for p in &mut scene.patches {
+                for v in &mut p.vertices {
+                    *v *= k;
+                }
+            }
+        }
+        let tr = Tracer::new(&scene, shellsim::config::cell_size(Length::Auto, scene.size())).unwrap();
+        let s = src.index(scene.patches.len());
+        let set = hemisphere_rays(&scene.patches[s], PAPER_RAYS, Directions::Random, Origins::Patch, seed);
+        let d = packet_difference(&tr, &set.rays, Some(s as u32));
+        prop_assert!(d.is_none(), "{}", d.unwrap());
+    }
 }

@@ -30,6 +30,21 @@
 //! extent, below the tolerances those tests allow, and patches fall out of the grid. (A
 //! scene whose low corner is the origin is traced bit for bit as before: subtracting 0 is
 //! exact.)
+//!
+//! **Invariant (bundles):** [`Tracer::trace_packet`] traces a bundle of rays (one source's
+//! hemisphere, say) and answers for each exactly what [`Tracer::trace_counted`] answers —
+//! the same patch, the same bits of t, the same cell, nonempty-cell and test counts —
+//! because each ray runs the one-ray walk's operations in the one-ray walk's order. It is
+//! the bulk entry point (`cast` goes through it), tested equal to the one-ray path on every
+//! committed scene and stability case (tests/grid_vs_brute.rs). Each ray still walks on its
+//! own: issue 36 measured the packet forms against it on one thread (the Cornell box and the
+//! Cornell room at 1,183 and 21,175 patches, 969 rays from 50 sources) and all were slower —
+//! four rays' walks interleaved in lanes by 38–57 %, the DDA step on selects instead of the
+//! branch on the axis (what lanes need) by 28–47 %, rays regrouped by origin cell by 5–20 %,
+//! an exact jump over empty cells (a Chebyshev distance field; the counts kept by counting
+//! the crossings jumped) by 11–22 % — and the bundle's rays share little to vectorize over:
+//! ring neighbours are 4.5° apart and leave their first cell apart, and only 11–18 % of the
+//! tests are in a ray's first cell. BENCHMARKS.md has the figures against Embree.
 
 use crate::reference::grid::Grid;
 use crate::scene::{Patch, Scene};
@@ -593,6 +608,22 @@ impl Tracer {
     /// Nearest hit by grid traversal, with the work it took.
     pub fn trace_counted(&self, ray: &Ray, exclude: Option<u32>) -> (Option<Hit>, TraceCounts) {
         self.walk::<true>(ray, exclude)
+    }
+
+    /// Nearest hits of a bundle of rays (one source's rays, say), with the work each took:
+    /// `out[i]` is `trace_counted(&rays[i], exclude)`, bit for bit — the bulk entry point
+    /// ([`crate::reference::cast::cast`] traces through it). Each ray walks on its own (see
+    /// the module's note on bundles).
+    pub fn trace_packet(
+        &self,
+        rays: &[Ray],
+        exclude: Option<u32>,
+        out: &mut [(Option<Hit>, TraceCounts)],
+    ) {
+        assert_eq!(rays.len(), out.len(), "one result per ray");
+        for (r, o) in rays.iter().zip(out) {
+            *o = self.walk::<true>(r, exclude);
+        }
     }
 
     /// Nearest hit by 3D-DDA: tests each cell's patches in order of increasing t (each patch
