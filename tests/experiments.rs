@@ -404,3 +404,51 @@ fn the_queue_level_estimates_the_cycle_level_within_five_percent() {
         );
     }
 }
+
+/// `run --level queue` estimates the run's cycles within 5 % of `run`'s on scene2 with
+/// balanced.toml, writes the same JSON shape with `"level": "queue"`, and refuses a
+/// waveform (exit 2, nothing written).
+#[test]
+fn run_at_the_queue_level_estimates_the_cycle_run() {
+    let exe = env!("CARGO_BIN_EXE_shellsim");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = common::scene_path("scene2.json");
+    let go = |extra: &[&str], json: &Path| {
+        Command::new(exe)
+            .arg("run")
+            .arg("--scene")
+            .arg(&scene)
+            .arg("--hw")
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("hw/configs/balanced.toml"))
+            .args(extra)
+            .arg("--json")
+            .arg(json)
+            .output()
+            .unwrap()
+    };
+    let cycles = |p: &Path, key: &str| -> u64 {
+        let v: serde_json::Value = serde_json::from_slice(&std::fs::read(p).unwrap()).unwrap();
+        v[key]["cycles"].as_u64().unwrap_or_else(|| panic!("{v}"))
+    };
+    let (c, q) = (dir.path().join("c.json"), dir.path().join("q.json"));
+    for (extra, p) in [(&[][..], &c), (&["--level", "queue"][..], &q)] {
+        let o = go(extra, p);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let tc = cycles(&c, "stats");
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(&q).unwrap()).unwrap();
+    assert_eq!(v["level"], "queue");
+    let tq = v["run"]["estimate"]["cycles"].as_u64().unwrap();
+    let err = (tq as f64 - tc as f64).abs() / tc as f64;
+    assert!(err <= 0.05, "queue {tq} vs cycle {tc}");
+    let w = dir.path().join("w.vcd");
+    let o = Command::new(exe)
+        .args(["run", "--level", "queue", "--scene"])
+        .arg(&scene)
+        .arg("--vcd")
+        .arg(&w)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{o:?}");
+    assert!(!w.exists());
+}

@@ -22,6 +22,12 @@ pub struct RunArgs {
     /// output).
     #[arg(long)]
     pub json: Option<PathBuf>,
+    /// The timing level: `cycle` steps the machine cycle by cycle and checks it against the
+    /// fixed-point model; `queue` takes each ray's result from the fixed-point model and
+    /// estimates the cycles with the paper's queueing network (`shellsim experiment levels`
+    /// measures its error), several times faster and without a waveform.
+    #[arg(long, value_enum, default_value_t = Level::Cycle)]
+    pub level: Level,
     /// Dynamic workload balancing: overrides the configuration's [balance] enabled.
     #[arg(long, value_enum)]
     pub balance: Option<OnOff>,
@@ -60,8 +66,22 @@ pub struct RunArgs {
     pub fst_pack: Option<FstPack>,
 }
 
+/// A run's timing level.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Level {
+    /// The cycle-level machine.
+    Cycle,
+    /// The queueing network over the CTUs' walks.
+    Queue,
+}
+
 /// Runs `shellsim run`.
 pub fn run(a: &RunArgs) -> Result<()> {
+    if a.level == Level::Queue && (a.vcd.is_some() || a.wave.is_some()) {
+        return Err(Error::Usage(
+            "--level queue steps no machine, so it writes no waveform: drop --vcd/--wave or run --level cycle".into(),
+        ));
+    }
     check_outputs(&a.outputs()?)?;
     let (scene, source) = a.input.load()?;
     let mut cfg = a.machine.load()?;
@@ -73,6 +93,16 @@ pub fn run(a: &RunArgs) -> Result<()> {
         ratio: a.ratio,
         order: shellsim_hw::machine::TickOrder::Forward,
     };
+    if a.level == Level::Queue {
+        let q =
+            crate::machine::queue::execute(&scene, a.input.path(), &cfg, &spec, a.json.as_deref())?;
+        let e = &q.estimate;
+        crate::output::outln!(
+            "{}: {} rays, {} cycles (queue level), pipeline efficiency {:.3}, {} patch loads, {} jobs, {} work-items ({} jobs moved); results from the fixed-point model, {:.3} s",
+            q.scene, q.rays, e.cycles, q.pipeline_efficiency, e.patch_loads, e.jobs, e.work_items, e.jobs_moved, q.wall.untimed_s + q.wall.timing_s()
+        );
+        return Ok(());
+    }
     let vcd = a.vcd.as_ref().or(a.wave.as_ref()).map(|p| {
         (
             p.clone(),

@@ -133,3 +133,47 @@ pub fn estimate(
         },
     })
 }
+
+/// `shellsim run --level queue`: partitions the scene as a cycle-level run does, estimates
+/// its timing at the queue level and writes the JSON (configuration, estimate, wall seconds
+/// apart from it) when asked.
+pub fn execute(
+    scene: &crate::scene::Scene,
+    file: &std::path::Path,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+    json: Option<&std::path::Path>,
+) -> Result<QueueRun> {
+    let prep = crate::machine::run::prepare(scene, file, cfg, spec)?;
+    let q = estimate(&prep.input(), &scene.name, cfg, spec, None)?;
+    if let Some(path) = json {
+        #[derive(Serialize)]
+        struct Wall {
+            untimed_s: f64,
+            walks_s: f64,
+            network_s: f64,
+        }
+        #[derive(Serialize)]
+        struct Out<'a> {
+            level: &'static str,
+            config: MachineConfig,
+            run: &'a QueueRun,
+            /// Host figures: not estimated statistics.
+            host: Wall,
+        }
+        crate::output::write_json(
+            path,
+            &Out {
+                level: "queue",
+                config: config::resolve(cfg, scene.size())?,
+                run: &q,
+                host: Wall {
+                    untimed_s: q.wall.untimed_s,
+                    walks_s: q.wall.walks_s,
+                    network_s: q.wall.network_s,
+                },
+            },
+        )?;
+    }
+    Ok(q)
+}

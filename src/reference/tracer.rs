@@ -612,7 +612,7 @@ impl Tracer {
 
     /// Nearest hits of a bundle of rays (one source's rays, say), with the work each took:
     /// `out[i]` is `trace_counted(&rays[i], exclude)`, bit for bit — the bulk entry point
-    /// ([`crate::reference::cast::cast`] traces through it). Each ray walks on its own (see
+    /// (`reference::cast::cast` traces through it). Each ray walks on its own (see
     /// the module's note on bundles).
     pub fn trace_packet(
         &self,
