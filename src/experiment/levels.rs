@@ -200,3 +200,249 @@ pub fn svg(title: &str, rows: &[LevelRow]) -> Result<String> {
             .collect::<Vec<_>>(),
     )
 }
+
+/// One of the paper's figures re-measured at both levels, on one scene and configuration.
+#[derive(Clone, Debug)]
+pub struct FigureLevels {
+    pub figure: &'static str,
+    pub scene: String,
+    pub config: &'static str,
+    pub rows: Vec<LevelRow>,
+}
+
+impl FigureLevels {
+    fn errors(&self) -> (f64, f64) {
+        let n = self.rows.len().max(1) as f64;
+        let mean = self.rows.iter().map(|r| r.error.abs()).sum::<f64>() / n;
+        let max = self.rows.iter().map(|r| r.error.abs()).fold(0.0, f64::max);
+        (mean, max)
+    }
+
+    fn efficiency_error(&self) -> f64 {
+        (self.rows.iter())
+            .map(|r| (r.queue_efficiency - r.efficiency).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// Same-work speedup at the most clusters with balancing: (cycle level, queue level).
+    fn speedup(&self) -> Option<(u32, f64, f64)> {
+        let p = self.rows.iter().map(|r| r.clusters).max()?;
+        let k = self.rows.first()?.ctus_per_cluster;
+        let on = (self.rows.iter()).find(|r| r.clusters == p && r.balance)?;
+        let same = (self.rows.iter()).find(|r| r.clusters == 1 && r.ctus_per_cluster == k * p)?;
+        let s = |a: u64, b: u64| a as f64 / b.max(1) as f64;
+        Some((
+            p,
+            s(same.cycles, on.cycles),
+            s(same.queue_cycles, on.queue_cycles),
+        ))
+    }
+}
+
+/// Kendall's τ between two rankings (ties count as neither concordant nor discordant).
+pub fn kendall_tau(a: &[u64], b: &[u64]) -> f64 {
+    let n = a.len().min(b.len());
+    let (mut c, mut d) = (0i64, 0i64);
+    for i in 0..n {
+        for j in i + 1..n {
+            let s = (a[i].cmp(&a[j]) as i64) * (b[i].cmp(&b[j]) as i64);
+            c += (s > 0) as i64;
+            d += (s < 0) as i64;
+        }
+    }
+    let pairs = (n * n.saturating_sub(1) / 2).max(1) as f64;
+    (c - d) as f64 / pairs
+}
+
+/// The paper's figures at both levels: the speedup machines (Fig 12.15, which hold the
+/// efficiency figures' ratio-10 points) on scene2 and stress-skewed for paper.toml and
+/// `balanced`; the efficiency figures' other ratios on paper.toml; the work-item sweep
+/// (Fig 12.14) on scene2. Sequential, so the wall times compare.
+pub fn figures(
+    w2: &Workload,
+    wk: &Workload,
+    balanced: &MachineConfig,
+    speedup_clusters: &[u32],
+    efficiency: (&[u32], &[usize]),
+    work_items: (u32, &[u32]),
+    ratio: usize,
+) -> Result<Vec<FigureLevels>> {
+    let mut out = Vec::new();
+    for w in [w2, wk] {
+        for (config, base) in [("paper.toml", w.base), ("balanced.toml", balanced)] {
+            let wc = Workload { base, ..*w };
+            out.push(FigureLevels {
+                figure: "speedup (Fig 12.15)",
+                scene: w.scene.name.clone(),
+                config,
+                rows: levels(&wc, speedup_clusters, ratio)?,
+            });
+        }
+        let mut rows = Vec::new();
+        for &r in efficiency.1.iter().filter(|&&r| r != ratio) {
+            for &p in efficiency.0 {
+                let prep = prepare(w, &machine(w.base, p, false), r)?;
+                for on in [false, true] {
+                    let label =
+                        format!("P={p} ratio {r} balance {}", if on { "on" } else { "off" });
+                    rows.push(compare(
+                        w,
+                        &prep.input(),
+                        &machine(w.base, p, on),
+                        r,
+                        label,
+                    )?);
+                }
+            }
+        }
+        out.push(FigureLevels {
+            figure: "efficiency, other ratios",
+            scene: w.scene.name.clone(),
+            config: "paper.toml",
+            rows,
+        });
+    }
+    let (p, sizes) = work_items;
+    let prep = prepare(w2, &machine(w2.base, p, false), ratio)?;
+    let mut rows = Vec::new();
+    for &n in sizes {
+        let mut cfg = machine(w2.base, p, true);
+        cfg.balance.work_item_jobs = n;
+        rows.push(compare(
+            w2,
+            &prep.input(),
+            &cfg,
+            ratio,
+            format!("P={p} work-item {n}"),
+        )?);
+    }
+    out.push(FigureLevels {
+        figure: "work-item (Fig 12.14)",
+        scene: w2.scene.name.clone(),
+        config: "paper.toml",
+        rows,
+    });
+    Ok(out)
+}
+
+/// Every figure's rows as one CSV (no wall times).
+pub fn figures_csv(figs: &[FigureLevels]) -> String {
+    let mut s = String::new();
+    for f in figs {
+        let body = csv(&f.rows);
+        let mut lines = body.lines();
+        if s.is_empty() {
+            let _ = writeln!(s, "figure,scene,config,{}", lines.next().unwrap_or(""));
+        } else {
+            lines.next();
+        }
+        for l in lines {
+            let _ = writeln!(s, "{},{},{},{l}", f.figure, f.scene, f.config);
+        }
+    }
+    s
+}
+
+/// The report's section: how far the paper's method (a queueing network driven by the walk's
+/// trace) is from cycle-level truth, per figure.
+pub fn section(figs: &[FigureLevels]) -> String {
+    let mut s = String::from(
+        "## The paper's method against cycle-level truth (issue 33)\n\n\
+         The paper evaluated its machine with a trace-driven queueing network (Figs 12.4–12.5).\n\
+         `shellsim run --level queue` is that method: each CTU's walk is traced against an ideal\n\
+         environment, and an event network with the paper's service centres (memory port,\n\
+         patch buffer, ray buffer and ICU, joins, Split/Distribute/Sampling Work, the link and\n\
+         the moved results' return port) re-times it. Its results are the fixed-point model's;\n\
+         only the timing is estimated. Here every machine of each figure runs at both levels\n\
+         ([CSV](levels.csv); `shellsim experiment levels --scene S [--hw H]` for one scene).\n\
+         Δ = (queue − cycle) / cycle; efficiency = Σ jobs / (ICUs × cycles).\n\n\
+         | figure | scene | configuration | machines | mean abs Δcycles | max abs Δcycles | max abs Δefficiency | figure-level: cycle / queue |\n\
+         | --- | --- | --- | --- | --- | --- | --- | --- |\n",
+    );
+    for f in figs {
+        let (mean, max) = f.errors();
+        let derived = if f.figure.starts_with("work-item") {
+            let c: Vec<u64> = f.rows.iter().map(|r| r.cycles).collect();
+            let q: Vec<u64> = f.rows.iter().map(|r| r.queue_cycles).collect();
+            let best = |v: &[u64]| {
+                (f.rows.iter().zip(v))
+                    .min_by_key(|(_, &c)| c)
+                    .map_or(String::new(), |(r, _)| r.machine.clone())
+            };
+            format!(
+                "Kendall τ {:.2}; best: {} / {}",
+                kendall_tau(&c, &q),
+                best(&c),
+                best(&q)
+            )
+        } else if let Some((p, a, b)) = f.speedup() {
+            format!("speedup at {p}: {a:.2} / {b:.2}")
+        } else {
+            String::from("—")
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {:.1}% | {:.1}% | {:.3} | {derived} |",
+            f.figure,
+            f.scene,
+            f.config,
+            f.rows.len(),
+            100.0 * mean,
+            100.0 * max,
+            f.efficiency_error(),
+        );
+    }
+    let all: Vec<&LevelRow> = figs.iter().flat_map(|f| &f.rows).collect();
+    let n = all.len().max(1) as f64;
+    let _ = writeln!(
+        s,
+        "\nOver all {} machines: mean abs Δcycles {:.1}%, max {:.1}% (targets 5 % and 10 %).",
+        all.len(),
+        100.0 * all.iter().map(|r| r.error.abs()).sum::<f64>() / n,
+        100.0 * all.iter().map(|r| r.error.abs()).fold(0.0, f64::max)
+    );
+    s
+}
+
+/// Wall seconds per figure at both levels (for the terminal: they vary from run to run).
+pub fn wall_summary(figs: &[FigureLevels]) -> String {
+    let mut s = String::new();
+    let (mut tc, mut tq) = (0.0, 0.0);
+    for f in figs {
+        let wc: f64 = f.rows.iter().map(|r| r.wall_cycle_s).sum();
+        let wq: f64 = f
+            .rows
+            .iter()
+            .map(|r| r.wall_queue_s + r.wall_untimed_s)
+            .sum();
+        tc += wc;
+        tq += wq;
+        let _ = writeln!(
+            s,
+            "levels: {} {} {}: cycle level {wc:.2} s, queue level {wq:.2} s ({:.1}×)",
+            f.figure,
+            f.scene,
+            f.config,
+            wc / wq.max(1e-9)
+        );
+    }
+    let _ = writeln!(
+        s,
+        "levels: all figures: cycle level {tc:.2} s, queue level {tq:.2} s ({:.1}×, the queue level counting the fixed-point results)",
+        tc / tq.max(1e-9)
+    );
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::kendall_tau;
+
+    #[test]
+    fn kendall_tau_counts_concordant_less_discordant_pairs() {
+        assert_eq!(kendall_tau(&[1, 2, 3, 4], &[10, 20, 30, 40]), 1.0);
+        assert_eq!(kendall_tau(&[1, 2, 3, 4], &[40, 30, 20, 10]), -1.0);
+        // One swapped neighbour pair of six: (5 − 1) / 6.
+        assert!((kendall_tau(&[1, 2, 3, 4], &[10, 30, 20, 40]) - 4.0 / 6.0).abs() < 1e-12);
+    }
+}

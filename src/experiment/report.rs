@@ -140,6 +140,8 @@ pub struct PaperResults {
     pub variants: Vec<MachineVariant>,
     /// Issue 36's levers on the best variant, and the `balanced` configuration.
     pub levers: Vec<super::levers::LeverRow>,
+    /// Issue 33: the figures at the queue level against the cycle level.
+    pub levels: Vec<super::levels::FigureLevels>,
     pub best_skewed: Vec<Point>,
 }
 
@@ -245,6 +247,16 @@ pub fn paper(dir: &Path) -> Result<PaperResults> {
     let what_if = what_if(&w2)?;
     let variants = machine_variants(&w2, &speedup)?;
     let levers = super::levers::measure(&w2, &wk, &base)?;
+    let levels = super::levels::figures(
+        &w2,
+        &wk,
+        &crate::config::named("balanced")?,
+        &SPEEDUP_CLUSTERS,
+        (&EFFICIENCY_CLUSTERS, &RATIOS),
+        (WORK_ITEM_CLUSTERS, &WORK_ITEMS),
+        PAPER_RATIO,
+    )?;
+    crate::output::out!("{}", super::levels::wall_summary(&levels));
     let best = best_variant(&variants).expect("four variants");
     let best_base = with_variant(&base, best.job_source, best.overlap_joins);
     let best_skewed = super::efficiency(
@@ -284,6 +296,7 @@ pub fn paper(dir: &Path) -> Result<PaperResults> {
         what_if,
         variants,
         levers,
+        levels,
         best_skewed,
     };
     write_atomic(
@@ -297,6 +310,10 @@ pub fn paper(dir: &Path) -> Result<PaperResults> {
     write_atomic(
         &dir.join("levers-scene2.csv"),
         super::levers::csv(&r.levers).as_bytes(),
+    )?;
+    write_atomic(
+        &dir.join("levels.csv"),
+        super::levels::figures_csv(&r.levels).as_bytes(),
     )?;
     write_atomic(&dir.join("report.md"), report(&r).as_bytes())?;
     Ok(r)
@@ -988,6 +1005,8 @@ pub fn report(r: &PaperResults) -> String {
 
     s.push_str(&variants_section(r));
     s.push_str(&super::levers::section(&r.levers));
+    s.push('\n');
+    s.push_str(&super::levels::section(&r.levels));
     s.push_str(
         "![speedup, scene2, balanced](speedup-scene2-balanced.svg)\n\n\
          Fig 12.15 for hw/configs/balanced.toml ([CSV](speedup-scene2-balanced.csv)).\n\n",
