@@ -13,6 +13,7 @@ use shellsim_hw::datapath::record::RecordSizes;
 use shellsim_hw::machine::ctu_params;
 use shellsim_hw::queue::net::{self, Estimate, NetParams};
 use shellsim_hw::queue::walk::{self, CtuTrace, WalkInput};
+use shellsim_hw::units::ctu::CtuParams;
 use shellsim_hw::{Exceptions, FixedHit};
 use std::time::Instant;
 
@@ -25,7 +26,7 @@ pub struct QueueRun {
     pub estimate: Estimate,
     /// Σ jobs / (ICUs × cycles): the pipelines' time-space efficiency.
     pub pipeline_efficiency: f64,
-    /// Each ray's result (the untimed model's).
+    /// Each ray's result (the untimed model's; empty from [`retime`], whose walks hold them).
     #[serde(skip)]
     pub hits: Vec<Option<FixedHit>>,
     /// Wall seconds: the untimed model's results, the walks, the network (not in the JSON).
@@ -60,49 +61,72 @@ pub fn untimed_hits(input: &MachineInput, source: u32) -> Vec<Option<FixedHit>> 
         .collect()
 }
 
-/// Estimates a run of the machine on `input` at the queue level; `hits` are the untimed
-/// model's results when the caller has them.
-pub fn estimate(
-    input: &MachineInput,
-    scene_name: &str,
-    cfg: &MachineConfig,
-    spec: &RunSpec,
-    hits: Option<Vec<Option<FixedHit>>>,
-) -> Result<QueueRun> {
+/// The CTUs' walks of one partition under one CTU configuration: what every machine that
+/// differs only in timing knobs (memory, buffers, arbiter, balancing) re-times — the paper's
+/// trace-driven method, one trace for many design points.
+pub struct Walks {
+    pub traces: Vec<CtuTrace>,
+    /// Each CTU's parameters, for [`retime`]'s check that a machine reads the same walks.
+    params: Vec<CtuParams>,
+    request_capacity: u32,
+    /// Each ray's result (the untimed model's).
+    pub hits: Vec<Option<FixedHit>>,
+    pub untimed_s: f64,
+    pub walks_s: f64,
+}
+
+/// `cfg` resolved into hardware units for `input`'s scene.
+fn hardware(input: &MachineInput, cfg: &MachineConfig) -> Result<MachineConfig> {
     let host = input.host;
-    let hw = config::in_hardware_units(
+    config::in_hardware_units(
         cfg,
         config::SceneSize {
             scale: host.scale,
             patches: host.scene.patches.len(),
         },
-    )?;
-    let t0 = Instant::now();
-    let hits = hits.unwrap_or_else(|| untimed_hits(input, spec.source));
-    let t1 = Instant::now();
-    let f = &host.scene.formats;
+    )
+}
+
+/// Each CTU's parameters under `hw` (hardware units), cluster-major.
+fn params_of(input: &MachineInput, hw: &MachineConfig, spec: &RunSpec) -> Result<Vec<CtuParams>> {
+    let f = &input.host.scene.formats;
     let shell_raw = hw
         .shell_raw()
         .map_err(|e| Error::Check(format!("the machine configuration: {e}")))?;
     let k = hw.machine.ctus_per_cluster as usize;
-    let sectors: Vec<(usize, usize, &[u32])> = input
-        .sectors
-        .iter()
-        .enumerate()
-        .flat_map(|(c, secs)| secs.iter().enumerate().map(move |(j, r)| (c, j, &r[..])))
-        .collect();
-    if sectors.len() != hw.machine.clusters as usize * k {
+    let n: usize = input.sectors.iter().map(Vec::len).sum();
+    if input.sectors.len() != hw.machine.clusters as usize || n != hw.machine.clusters as usize * k
+    {
         return Err(Error::Check(format!(
-            "{} sectors for {} clusters of {k} CTUs",
-            sectors.len(),
+            "{n} sectors for {} clusters of {k} CTUs",
             hw.machine.clusters
         )));
     }
-    let traces: Vec<CtuTrace> = sectors
-        .par_iter()
-        .map(|&(c, j, rays)| {
+    Ok((0..n)
+        .map(|i| ctu_params(hw, f, shell_raw, spec.source, i / k, i % k))
+        .collect())
+}
+
+/// Walks every CTU of `input` under `cfg`; `hits` are the untimed model's results when the
+/// caller has them.
+pub fn walks(
+    input: &MachineInput,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+    hits: Option<Vec<Option<FixedHit>>>,
+) -> Result<Walks> {
+    let host = input.host;
+    let hw = hardware(input, cfg)?;
+    let t0 = Instant::now();
+    let hits = hits.unwrap_or_else(|| untimed_hits(input, spec.source));
+    let t1 = Instant::now();
+    let params = params_of(input, &hw, spec)?;
+    let sectors: Vec<&[u32]> = input.sectors.iter().flatten().map(|r| &r[..]).collect();
+    let traces: Vec<CtuTrace> = (params.par_iter())
+        .zip(sectors.par_iter())
+        .map(|(&p, rays)| {
             walk::walk(&WalkInput {
-                params: ctu_params(&hw, f, shell_raw, spec.source, c, j),
+                params: p,
                 rays,
                 records: input.records,
                 cells: &host.scene.cells,
@@ -114,10 +138,37 @@ pub fn estimate(
         })
         .collect::<std::result::Result<_, _>>()
         .map_err(|e| Error::Check(e.to_string()))?;
-    let t2 = Instant::now();
-    let words = RecordSizes::of(f).patch_words;
-    let estimate = net::estimate(NetParams::of(&hw, words), &traces).map_err(Error::Check)?;
-    let t3 = Instant::now();
+    Ok(Walks {
+        traces,
+        params,
+        request_capacity: hw.machine.request_queue_capacity,
+        hits,
+        untimed_s: (t1 - t0).as_secs_f64(),
+        walks_s: t1.elapsed().as_secs_f64(),
+    })
+}
+
+/// Re-times `walks` on the machine `cfg` with the queueing network; `cfg` must give every
+/// CTU the parameters the walks were taken with (it may differ in any timing knob).
+pub fn retime(
+    walks: &Walks,
+    input: &MachineInput,
+    scene_name: &str,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+) -> Result<QueueRun> {
+    let hw = hardware(input, cfg)?;
+    if params_of(input, &hw, spec)? != walks.params
+        || hw.machine.request_queue_capacity != walks.request_capacity
+    {
+        return Err(Error::Check(
+            "the machine's CTUs differ from those the walks were taken with: walk again".into(),
+        ));
+    }
+    let t0 = Instant::now();
+    let words = RecordSizes::of(&input.host.scene.formats).patch_words;
+    let estimate = net::estimate(NetParams::of(&hw, words), &walks.traces).map_err(Error::Check)?;
+    let network_s = t0.elapsed().as_secs_f64();
     let p = hw.machine.clusters.max(1) as f64;
     Ok(QueueRun {
         scene: scene_name.to_string(),
@@ -125,13 +176,29 @@ pub fn estimate(
         rays: input.records.len(),
         pipeline_efficiency: estimate.jobs as f64 / (p * estimate.cycles.max(1) as f64),
         estimate,
-        hits,
+        hits: Vec::new(),
         wall: QueueWall {
-            untimed_s: (t1 - t0).as_secs_f64(),
-            walks_s: (t2 - t1).as_secs_f64(),
-            network_s: (t3 - t2).as_secs_f64(),
+            untimed_s: 0.0,
+            walks_s: 0.0,
+            network_s,
         },
     })
+}
+
+/// Estimates a run of the machine on `input` at the queue level: [`walks`] then [`retime`].
+pub fn estimate(
+    input: &MachineInput,
+    scene_name: &str,
+    cfg: &MachineConfig,
+    spec: &RunSpec,
+    hits: Option<Vec<Option<FixedHit>>>,
+) -> Result<QueueRun> {
+    let w = walks(input, cfg, spec, hits)?;
+    let mut q = retime(&w, input, scene_name, cfg, spec)?;
+    q.wall.untimed_s = w.untimed_s;
+    q.wall.walks_s = w.walks_s;
+    q.hits = w.hits;
+    Ok(q)
 }
 
 /// `shellsim run --level queue`: partitions the scene as a cycle-level run does, estimates

@@ -165,7 +165,7 @@ impl StateCycles {
 }
 
 /// What a CTU needs that is fixed for the run.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct CtuParams {
     pub cluster: u16,
     pub local: u16,
