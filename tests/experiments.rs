@@ -378,7 +378,7 @@ fn the_queue_level_estimates_the_cycle_level_within_five_percent() {
             source: 0,
             base: &base,
         };
-        let rows = experiment::levels::levels(&w, &[1, 2, 4], 10).unwrap();
+        let rows = experiment::levels::levels(&w, &[1, 2, 4], 10, false).unwrap();
         assert_eq!(rows.len(), 3 * 2 + 2, "{name}");
         for r in &rows {
             assert!(

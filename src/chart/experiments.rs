@@ -402,24 +402,25 @@ pub fn levels_svg(title: &str, rows: &[(String, f64)]) -> Result<String> {
         let mut chart = ChartBuilder::on(&root)
             .caption(title, ("sans-serif", 16))
             .margin(12)
-            .x_label_area_size(120)
+            .x_label_area_size(40)
             .y_label_area_size(55)
-            .build_cartesian_2d((0..n).into_segmented(), -lim..lim)
+            .build_cartesian_2d(-0.5..n as f64 - 0.5, -lim..lim)
             .map_err(draw_err)?;
         chart
             .configure_mesh()
             .disable_x_mesh()
             .y_desc("queue − cycle, % of the cycle level's cycles")
             .x_labels(n)
-            .x_label_formatter(&|x| match x {
-                SegmentValue::CenterOf(i) => rows.get(*i).map_or(String::new(), |r| r.0.clone()),
-                _ => String::new(),
+            .x_label_formatter(&|x| {
+                let i = x.round();
+                if (x - i).abs() > 1e-6 || i < 0.0 {
+                    return String::new();
+                }
+                rows.get(i as usize).map_or(String::new(), |r| {
+                    (r.0.replace(" balance ", " ")).replace(" same work", " same")
+                })
             })
-            .x_label_style(
-                ("sans-serif", 11)
-                    .into_font()
-                    .transform(FontTransform::Rotate90),
-            )
+            .x_label_style(("sans-serif", 11))
             .y_label_formatter(&|y| format!("{y:+.0}"))
             .label_style(("sans-serif", 12))
             .draw()
@@ -431,7 +432,7 @@ pub fn levels_svg(title: &str, rows: &[(String, f64)]) -> Result<String> {
             for s in [v, -v] {
                 let series = chart
                     .draw_series(LineSeries::new(
-                        [(SegmentValue::Exact(0), s), (SegmentValue::Exact(n), s)],
+                        [(-0.5, s), (n as f64 - 0.5, s)],
                         color.stroke_width(1),
                     ))
                     .map_err(draw_err)?;
@@ -446,14 +447,71 @@ pub fn levels_svg(title: &str, rows: &[(String, f64)]) -> Result<String> {
             .draw_series(rows.iter().enumerate().map(|(i, r)| {
                 let e = 100.0 * r.1;
                 Rectangle::new(
-                    [
-                        (SegmentValue::Exact(i), 0.0),
-                        (SegmentValue::Exact(i + 1), e),
-                    ],
+                    [(i as f64 - 0.35, 0.0), (i as f64 + 0.35, e)],
                     ON.mix(0.8).filled(),
                 )
             }))
             .map_err(draw_err)?;
+        legend(&mut chart, SeriesLabelPosition::LowerLeft, Legend::Boxed).map_err(draw_err)?;
+        root.present().map_err(draw_err)?;
+    }
+    Ok(out)
+}
+
+/// Wall seconds (log) against |Δcycles| in % of the cycle level: one series of marks per
+/// timing level (`levels::wall_svg`).
+pub fn wall_svg(title: &str, series: &[(&str, Vec<(f64, f64)>)]) -> Result<String> {
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, (900, 520)).into_drawing_area();
+        root.fill(&WHITE).map_err(draw_err)?;
+        let pts = series.iter().flat_map(|s| &s.1);
+        let (lo, hi) = pts.clone().fold((f64::MAX, f64::MIN), |(a, b), p| {
+            (a.min(p.0.max(1e-6)), b.max(p.0))
+        });
+        let (lo, hi) = if lo > hi {
+            (1e-3, 1.0)
+        } else {
+            (lo / 2.0, hi * 2.0)
+        };
+        let ymax = pts.map(|p| p.1).fold(12.0f64, f64::max) * 1.1;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 16))
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(55)
+            .build_cartesian_2d((lo..hi).log_scale(), 0.0..ymax)
+            .map_err(draw_err)?;
+        chart
+            .configure_mesh()
+            .x_desc("wall seconds per machine (this host; log scale)")
+            .y_desc("|cycles − cycle level's|, %")
+            .x_label_formatter(&|x| format!("{x:.0e}"))
+            .y_label_formatter(&|y| format!("{y:.0}"))
+            .label_style(("sans-serif", 12))
+            .draw()
+            .map_err(draw_err)?;
+        let colours = [BOUND, OFF, palette::RED, ON, IDEAL];
+        for (i, (name, marks)) in series.iter().enumerate() {
+            let c = colours[i % colours.len()];
+            // The last series as rings, so marks on the same spot stay visible.
+            let last = i + 1 == series.len();
+            let style = if last {
+                c.stroke_width(2)
+            } else {
+                c.mix(0.75).filled()
+            };
+            let r = if last { 7 } else { 4 };
+            chart
+                .draw_series(
+                    marks
+                        .iter()
+                        .map(|&(x, y)| Circle::new((x.max(lo), y), r, style)),
+                )
+                .map_err(draw_err)?
+                .label(*name)
+                .legend(move |(x, y)| Circle::new((x + 8, y), r, style));
+        }
         legend(&mut chart, SeriesLabelPosition::UpperRight, Legend::Boxed).map_err(draw_err)?;
         root.present().map_err(draw_err)?;
     }

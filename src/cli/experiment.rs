@@ -41,6 +41,15 @@ pub fn run(a: &ExperimentArgs) -> Result<()> {
     let out = experiment(a.which, &w)?;
     crate::output::out!("{}", out.summary);
     out.write(&a.out)?;
-    crate::output::outln!("wrote {}/{}.csv and .svg", a.out.display(), out.stem);
+    crate::output::outln!(
+        "wrote {}/{}.csv and .svg{}",
+        a.out.display(),
+        out.stem,
+        if out.wall_svg.is_some() {
+            " (and -wall.svg: wall seconds, which vary from run to run)"
+        } else {
+            ""
+        }
+    );
     Ok(())
 }

@@ -36,6 +36,8 @@ pub struct LevelRow {
     pub icu_utilization_error: f64,
     pub jobs_moved: u64,
     pub queue_jobs_moved: u64,
+    /// The resource bound's cycles (the lowest level: no timing at all).
+    pub bound_cycles: u64,
     /// Wall seconds (not in the CSV): the cycle level, the queue level's timing (walks and
     /// network) and its untimed results. Machines that differ only in timing knobs share
     /// one walk: the first pays for it (and for the untimed results), the others only for the
@@ -49,6 +51,13 @@ pub struct LevelRow {
     /// Wall seconds of the network alone.
     #[serde(skip)]
     pub wall_network_s: f64,
+    /// Wall seconds of the bound's counts: the untimed model's results.
+    #[serde(skip)]
+    pub wall_bound_s: f64,
+    /// Wall seconds of the cycle level without `cycle_jump` (when measured; its cycles are
+    /// checked equal).
+    #[serde(skip)]
+    pub wall_cycle_nojump_s: Option<f64>,
 }
 
 /// Runs `cfg` on `input` at both levels; the queue level re-times `walks` when they are
@@ -60,10 +69,26 @@ pub fn compare(
     ratio: usize,
     label: String,
     walks: &mut Option<queue::Walks>,
+    nojump: bool,
 ) -> Result<LevelRow> {
     let t0 = Instant::now();
     let stats = simulate_checked(w, input, cfg, ratio)?;
     let wall_cycle_s = t0.elapsed().as_secs_f64();
+    let wall_cycle_nojump_s = if nojump && cfg.machine.cycle_jump {
+        let mut stepped = *cfg;
+        stepped.machine.cycle_jump = false;
+        let t0 = Instant::now();
+        let s = simulate_checked(w, input, &stepped, ratio)?;
+        if s.cycles != stats.cycles {
+            return Err(crate::error::Error::Check(format!(
+                "{label}: {} cycles stepping every cycle, {} with cycle_jump",
+                s.cycles, stats.cycles
+            )));
+        }
+        Some(t0.elapsed().as_secs_f64())
+    } else {
+        None
+    };
     let point = Point::new(&stats, cfg, ratio);
     let spec = RunSpec {
         source: w.source,
@@ -76,13 +101,9 @@ pub fn compare(
         (walk_s, untimed_s) = (wk.walks_s, wk.untimed_s);
         *walks = Some(wk);
     }
-    let q = queue::retime(
-        walks.as_ref().expect("walked"),
-        input,
-        &w.scene.name,
-        cfg,
-        &spec,
-    )?;
+    let walked = walks.as_ref().expect("walked");
+    let wall_bound_s = walked.untimed_s;
+    let q = queue::retime(walked, input, &w.scene.name, cfg, &spec)?;
     let e = &q.estimate;
     let util = |jobs: u64, cycles: u64| jobs as f64 / cycles.max(1) as f64;
     let icu_utilization_error = stats
@@ -105,16 +126,21 @@ pub fn compare(
         icu_utilization_error,
         jobs_moved: point.jobs_moved,
         queue_jobs_moved: e.jobs_moved,
+        bound_cycles: point.bound.cycles(),
         wall_cycle_s,
         wall_queue_s: walk_s + q.wall.network_s,
         wall_untimed_s: untimed_s,
         wall_network_s: q.wall.network_s,
+        wall_bound_s,
+        wall_cycle_nojump_s,
     })
 }
 
 /// Both levels on the speedup experiment's machines at `ratio`, one after the other (so the
 /// wall times are comparable).
-pub fn levels(w: &Workload, clusters: &[u32], ratio: usize) -> Result<Vec<LevelRow>> {
+/// With `nojump`, each machine also runs without `cycle_jump` (its wall time, cycles checked
+/// equal).
+pub fn levels(w: &Workload, clusters: &[u32], ratio: usize, nojump: bool) -> Result<Vec<LevelRow>> {
     let k = w.base.machine.ctus_per_cluster;
     let mut rows = Vec::new();
     for &p in clusters {
@@ -129,6 +155,7 @@ pub fn levels(w: &Workload, clusters: &[u32], ratio: usize) -> Result<Vec<LevelR
                 ratio,
                 label,
                 &mut walks,
+                nojump,
             )?);
         }
         if p > 1 {
@@ -140,7 +167,7 @@ pub fn levels(w: &Workload, clusters: &[u32], ratio: usize) -> Result<Vec<LevelR
                 ..prep.input()
             };
             let label = format!("1×{} same work", k * p);
-            rows.push(compare(w, &input, &cfg, ratio, label, &mut None)?);
+            rows.push(compare(w, &input, &cfg, ratio, label, &mut None, nojump)?);
         }
     }
     Ok(rows)
@@ -149,12 +176,12 @@ pub fn levels(w: &Workload, clusters: &[u32], ratio: usize) -> Result<Vec<LevelR
 /// The rows as CSV (no wall times: the file is byte-identical across runs).
 pub fn csv(rows: &[LevelRow]) -> String {
     let mut s = String::from(
-        "machine,clusters,ctus_per_cluster,balance,ratio,cycles,queue_cycles,error,efficiency,queue_efficiency,icu_utilization_error,jobs_moved,queue_jobs_moved\n",
+        "machine,clusters,ctus_per_cluster,balance,ratio,cycles,queue_cycles,error,efficiency,queue_efficiency,icu_utilization_error,jobs_moved,queue_jobs_moved,bound_cycles\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{}",
+            "{},{},{},{},{},{},{},{:.4},{:.4},{:.4},{:.4},{},{},{}",
             r.machine,
             r.clusters,
             r.ctus_per_cluster,
@@ -167,7 +194,8 @@ pub fn csv(rows: &[LevelRow]) -> String {
             r.queue_efficiency,
             r.icu_utilization_error,
             r.jobs_moved,
-            r.queue_jobs_moved
+            r.queue_jobs_moved,
+            r.bound_cycles
         );
     }
     s
@@ -299,7 +327,7 @@ pub fn figures(
                 figure: "speedup (Fig 12.15)",
                 scene: w.scene.name.clone(),
                 config,
-                rows: levels(&wc, speedup_clusters, ratio)?,
+                rows: levels(&wc, speedup_clusters, ratio, false)?,
             });
         }
         let mut rows = Vec::new();
@@ -317,6 +345,7 @@ pub fn figures(
                         r,
                         label,
                         &mut walks,
+                        false,
                     )?);
                 }
             }
@@ -342,6 +371,7 @@ pub fn figures(
             ratio,
             format!("P={p} work-item {n}"),
             &mut walks,
+            false,
         )?);
     }
     out.push(FigureLevels {
@@ -462,6 +492,34 @@ pub fn wall_summary(figs: &[FigureLevels]) -> String {
         tc / tn.max(1e-9)
     );
     s
+}
+
+/// The speed–accuracy chart of `rows` (host figures): one mark per machine and level — the
+/// resource bound, the queue level walking and re-timing, re-timing a shared walk, the
+/// cycle level with and without `cycle_jump` — wall seconds against |Δcycles|.
+pub fn wall_svg(title: &str, rows: &[LevelRow]) -> Result<String> {
+    let err =
+        |c: u64, r: &LevelRow| 100.0 * (c as f64 - r.cycles as f64).abs() / r.cycles.max(1) as f64;
+    let mut marks: Vec<(&'static str, Vec<(f64, f64)>)> = vec![
+        ("resource bound (the untimed model's counts)", Vec::new()),
+        ("queue level: walk + network", Vec::new()),
+        ("queue level: network on a shared walk", Vec::new()),
+        ("cycle level (cycle_jump)", Vec::new()),
+        ("cycle level, every cycle stepped", Vec::new()),
+    ];
+    for r in rows {
+        marks[0].1.push((r.wall_bound_s, err(r.bound_cycles, r)));
+        let q = err(r.queue_cycles, r);
+        if r.wall_queue_s > r.wall_network_s {
+            marks[1].1.push((r.wall_queue_s + r.wall_untimed_s, q));
+        }
+        marks[2].1.push((r.wall_network_s, q));
+        marks[3].1.push((r.wall_cycle_s, 0.0));
+        if let Some(t) = r.wall_cycle_nojump_s {
+            marks[4].1.push((t, 0.0));
+        }
+    }
+    crate::chart::experiments::wall_svg(title, &marks)
 }
 
 #[cfg(test)]

@@ -43,12 +43,18 @@ pub struct Outputs {
     pub svg: String,
     /// A short table for the terminal.
     pub summary: String,
+    /// A chart of host figures (wall seconds), written as `stem-wall.svg`: unlike the CSV
+    /// and SVG it differs from run to run.
+    pub wall_svg: Option<String>,
 }
 
 impl Outputs {
     /// Writes `stem.csv` and `stem.svg` into `dir`.
     pub fn write(&self, dir: &Path) -> Result<()> {
         write_atomic(&dir.join(format!("{}.csv", self.stem)), self.csv.as_bytes())?;
+        if let Some(w) = &self.wall_svg {
+            write_atomic(&dir.join(format!("{}-wall.svg", self.stem)), w.as_bytes())?;
+        }
         write_atomic(&dir.join(format!("{}.svg", self.stem)), self.svg.as_bytes())
     }
 }
@@ -62,7 +68,9 @@ pub fn experiment(which: Which, w: &Workload) -> Result<Outputs> {
             &super::work_item(w, WORK_ITEM_CLUSTERS, PAPER_RATIO, &WORK_ITEMS)?,
         ),
         Which::Speedup => speedup_outputs(w, &super::speedup(w, &SPEEDUP_CLUSTERS, PAPER_RATIO)?),
-        Which::Levels => levels_outputs(w, &levels::levels(w, &SPEEDUP_CLUSTERS, PAPER_RATIO)?),
+        Which::Levels => {
+            levels_outputs(w, &levels::levels(w, &SPEEDUP_CLUSTERS, PAPER_RATIO, true)?)
+        }
     }
 }
 
@@ -87,6 +95,13 @@ pub fn levels_outputs(w: &Workload, rows: &[levels::LevelRow]) -> Result<Outputs
         csv: levels::csv(rows),
         svg: levels::svg(&title, rows)?,
         summary: levels::summary(rows),
+        wall_svg: Some(levels::wall_svg(
+            &format!(
+                "{} from patch {}: wall seconds per machine against the error in cycles",
+                w.scene.name, w.source
+            ),
+            rows,
+        )?),
     })
 }
 
@@ -116,6 +131,7 @@ pub fn efficiency_outputs(w: &Workload, pts: &[Point]) -> Result<Outputs> {
         csv: super::points_csv(pts),
         svg: efficiency_svg(&title, pts)?,
         summary,
+        wall_svg: None,
     })
 }
 
@@ -146,6 +162,7 @@ pub fn work_item_outputs(w: &Workload, rows: &WorkItemRows) -> Result<Outputs> {
         csv: super::work_item_csv(rows),
         svg: work_item_svg(&title, rows)?,
         summary,
+        wall_svg: None,
     })
 }
 
@@ -190,6 +207,7 @@ pub fn speedup_outputs_of(
         csv: super::speedup_csv(rows),
         svg: speedup_svg(&title, rows)?,
         summary,
+        wall_svg: None,
     })
 }
 
