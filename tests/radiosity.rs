@@ -736,3 +736,41 @@ fn a_sampled_machine_matrix_brackets_the_full_run() {
         assert!(e.to_string().contains("want an even number"), "{e}");
     }
 }
+
+/// `matrix --model machine --timing queue`: the same matrix as the cycle model's (every row
+/// from the untimed model, which the machine equals), each row's cycles from the queueing
+/// network within 5 % of the cycle model's and the total within 2 %.
+#[test]
+fn a_queue_timed_machine_matrix_matches_the_cycle_model() {
+    use shellsim::radiosity::matrix::{compute, compute_timed, Model};
+    let scene = shellsim::scene::gen::corpus::subdivided_box(4, glam::DVec3::ONE, false);
+    let cfg = *shellsim::config::built_in();
+    let n = scene.patches.len() as u32;
+    let spec = shellsim::radiosity::matrix::MatrixSpec {
+        model: Model::Machine,
+        rays: 969,
+        directions: shellsim::reference::rays::Directions::Rings,
+        seed: 1,
+        sources: 0..n,
+    };
+    let path = Path::new("box-4");
+    let full = compute(&scene, path, &cfg, &spec, false).unwrap();
+    let q = compute_timed(&scene, path, &cfg, &spec, false, true).unwrap();
+    assert_eq!(q.matrix_market(), full.matrix_market());
+    assert_eq!(q.machine.len(), full.machine.len());
+    let (mut tc, mut tq) = (0u64, 0u64);
+    for (k, (c, e)) in full.machine.iter().zip(&q.machine).enumerate() {
+        let err = (e.cycles as f64 - c.cycles as f64).abs() / c.cycles as f64;
+        assert!(
+            err <= 0.05,
+            "row {k}: queue {} vs cycle {}",
+            e.cycles,
+            c.cycles
+        );
+        assert_eq!(e.jobs, c.jobs, "row {k}");
+        tc += c.cycles;
+        tq += e.cycles;
+    }
+    let err = (tq as f64 - tc as f64).abs() / tc as f64;
+    assert!(err <= 0.02, "total: queue {tq} vs cycle {tc}");
+}

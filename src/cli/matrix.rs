@@ -2,6 +2,7 @@
 //! JSON summary.
 
 use super::args::{parse_range, MatrixRaysArgs, SceneFileArg};
+use super::run::Level;
 use crate::error::Result;
 use crate::limits::human;
 use crate::output::{check_outputs, outln, Output};
@@ -30,6 +31,11 @@ pub struct MatrixArgs {
     /// Seed of the sample's draw (the rays keep --seed).
     #[arg(long, default_value_t = 1, requires = "sample")]
     pub sample_seed: u64,
+    /// With the machine model: time every row with the queueing network (`queue`: rows from
+    /// the untimed model, cycles estimated; `docs/levels/` gives its error) instead of the
+    /// cycle model (`cycle`, the default).
+    #[arg(long, value_enum, default_value_t = Level::Cycle, conflicts_with = "sample")]
+    pub timing: Level,
     /// The matrix (Matrix Market, .mtx); its summary goes beside it as .json.
     #[arg(long)]
     pub out: PathBuf,
@@ -37,6 +43,13 @@ pub struct MatrixArgs {
 
 /// Runs `shellsim matrix`.
 pub fn run(a: &MatrixArgs) -> Result<()> {
+    let queue = a.timing == Level::Queue;
+    if queue && a.model != Model::Machine {
+        return Err(crate::error::Error::Usage(format!(
+            "--timing queue times the machine model; --model {} has no timing",
+            a.model.name()
+        )));
+    }
     check_outputs(&[
         Output::file("--out", &a.out),
         Output::file("--out", &a.out.with_extension("json")),
@@ -67,13 +80,14 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
             (m, Some(t))
         }
         None => (
-            matrix::compute(&scene, &a.scene.scene, &cfg, &spec, true)?,
+            matrix::compute_timed(&scene, &a.scene.scene, &cfg, &spec, true, queue)?,
             None,
         ),
     };
     let wall = start.elapsed().as_secs_f64();
     let mut summary = Summary::new(&m, &spec, &cfg, a.rays.clock_mhz);
     summary.sampled = sampled;
+    summary.timing = queue.then_some("queue");
     let on_patches = |r: &matrix::RowSummary| r.row_sum - r.escaped_weight - r.back_weight;
     let (lo, hi) = summary
         .rows
@@ -114,7 +128,8 @@ pub fn run(a: &MatrixArgs) -> Result<()> {
     }
     if let Some(t) = &summary.machine {
         outln!(
-            "machine: {} cycles = {:.4} s at {} MHz, pipeline efficiency {:.3}, {} patch loads, {} mismatches vs fixed",
+            "machine{}: {} cycles = {:.4} s at {} MHz, pipeline efficiency {:.3}, {} patch loads, {} mismatches vs fixed",
+            if summary.timing.is_some() { " (queue level: rows from the untimed model)" } else { "" },
             t.cycles, t.time_s, t.clock_mhz, t.pipeline_efficiency, t.patch_loads, t.mismatches_vs_fixed
         );
     }

@@ -252,6 +252,9 @@ pub struct Shared<'a> {
     /// For the fixed and machine models: the float reference's closure probe found no
     /// escape (`reference::orient::closure`), so a ray they lose is a leak.
     pub closed: bool,
+    /// The machine model's timing level: the cycle model, or the queueing network over the
+    /// untimed model's results (`--timing queue`).
+    pub queue_timing: bool,
 }
 
 impl<'a> Shared<'a> {
@@ -282,6 +285,7 @@ impl<'a> Shared<'a> {
             cell,
             shell_radius,
             closed,
+            queue_timing: false,
         })
     }
 }
@@ -390,6 +394,8 @@ pub struct RowRun {
     pub set: RaySet,
     pub hits: Vec<Option<u32>>,
     pub stats: Option<crate::machine::run::RunStats>,
+    /// The machine's figures from the queueing network (`--timing queue`).
+    pub queue: Option<MachineRow>,
 }
 
 impl RowRun {
@@ -449,12 +455,36 @@ pub fn run_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<RowRun> {
                 ratio: 1,
                 order: TickOrder::Forward,
             };
+            if sh.queue_timing {
+                let q =
+                    crate::machine::queue::estimate(&input, &sh.scene.name, sh.cfg, &run, None)?;
+                let hits = q.hits.iter().map(|h| h.map(|h| h.patch)).collect();
+                let e = &q.estimate;
+                let queue = MachineRow {
+                    cycles: e.cycles,
+                    pipeline_efficiency: q.pipeline_efficiency,
+                    patch_loads: e.patch_loads,
+                    jobs: e.jobs,
+                    mismatches_vs_fixed: 0,
+                };
+                return Ok(RowRun {
+                    set,
+                    hits,
+                    stats: None,
+                    queue: Some(queue),
+                });
+            }
             let out = simulate(&input, &sh.scene.name, sh.cfg, &run, None)?;
             let hits = out.hits.iter().map(|h| h.map(|h| h.patch)).collect();
             (hits, Some(out.stats))
         }
     };
-    Ok(RowRun { set, hits, stats })
+    Ok(RowRun {
+        set,
+        hits,
+        stats,
+        queue: None,
+    })
 }
 
 /// `Err(Error::Check)` naming the source, the ray and where it left when the fixed-point
@@ -501,12 +531,14 @@ pub fn compute_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(Row, Optio
     if sh.closed {
         leak_check(sh, spec, i, &run)?;
     }
-    let mr = run.stats.as_ref().map(|s| MachineRow {
-        cycles: s.cycles,
-        pipeline_efficiency: s.pipeline_efficiency,
-        patch_loads: s.patch_loads,
-        jobs: s.jobs,
-        mismatches_vs_fixed: s.mismatches_vs_fixed,
+    let mr = run.queue.or_else(|| {
+        run.stats.as_ref().map(|s| MachineRow {
+            cycles: s.cycles,
+            pipeline_efficiency: s.pipeline_efficiency,
+            patch_loads: s.patch_loads,
+            jobs: s.jobs,
+            mismatches_vs_fixed: s.mismatches_vs_fixed,
+        })
     });
     Ok((run.row(sh.scene, i), mr))
 }
@@ -569,9 +601,23 @@ pub fn compute(
     spec: &MatrixSpec,
     show_progress: bool,
 ) -> Result<FormMatrix> {
+    compute_timed(scene, file, cfg, spec, show_progress, false)
+}
+
+/// [`compute`], the machine model timed by the queueing network when `queue_timing` (its
+/// rows are the untimed model's, which the machine equals ray for ray).
+pub fn compute_timed(
+    scene: &Scene,
+    file: &Path,
+    cfg: &MachineConfig,
+    spec: &MatrixSpec,
+    show_progress: bool,
+    queue_timing: bool,
+) -> Result<FormMatrix> {
     validate(spec, scene, file)?;
     check_memory(spec, scene.patches.len(), 1)?;
-    let sh = Shared::new(scene, file, cfg, spec.model)?;
+    let mut sh = Shared::new(scene, file, cfg, spec.model)?;
+    sh.queue_timing = queue_timing;
     let ids: Vec<u32> = spec.sources.clone().collect();
     let mut progress = show_progress.then(|| Progress::new(ids.len() as u64, "sources"));
     let mut rows = Vec::with_capacity(ids.len());
@@ -651,6 +697,9 @@ pub struct Summary {
     /// untimed model's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub sampled: Option<SampledTiming>,
+    /// `"queue"` when the machine's figures are the queueing network's (`--timing queue`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timing: Option<&'static str>,
     pub rows: Vec<RowSummary>,
 }
 
@@ -707,6 +756,7 @@ impl Summary {
             config: (spec.model != Model::Float).then_some(*cfg),
             machine,
             sampled: None,
+            timing: None,
             rows,
         }
     }

@@ -43,6 +43,7 @@ fn fixed_row(sh: &Shared, spec: &MatrixSpec, i: u32) -> Result<(RowRun, u64)> {
             set,
             hits,
             stats: None,
+            queue: None,
         },
         work,
     ))
