@@ -351,7 +351,7 @@ pub fn figures(
             }
         }
         out.push(FigureLevels {
-            figure: "efficiency, other ratios",
+            figure: "efficiency (other ratios)",
             scene: w.scene.name.clone(),
             config: "paper.toml",
             rows,

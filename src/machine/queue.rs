@@ -66,9 +66,12 @@ pub fn untimed_hits(input: &MachineInput, source: u32) -> Vec<Option<FixedHit>> 
 /// trace-driven method, one trace for many design points.
 pub struct Walks {
     pub traces: Vec<CtuTrace>,
-    /// Each CTU's parameters, for [`retime`]'s check that a machine reads the same walks.
+    /// Each CTU's parameters, rays and sector sizes, for [`retime`]'s check that a machine
+    /// reads the same walks.
     params: Vec<CtuParams>,
     request_capacity: u32,
+    rays: usize,
+    sector_rays: Vec<usize>,
     /// Each ray's result (the untimed model's).
     pub hits: Vec<Option<FixedHit>>,
     pub untimed_s: f64,
@@ -142,6 +145,8 @@ pub fn walks(
         traces,
         params,
         request_capacity: hw.machine.request_queue_capacity,
+        rays: input.records.len(),
+        sector_rays: sectors.iter().map(|s| s.len()).collect(),
         hits,
         untimed_s: (t1 - t0).as_secs_f64(),
         walks_s: t1.elapsed().as_secs_f64(),
@@ -158,11 +163,15 @@ pub fn retime(
     spec: &RunSpec,
 ) -> Result<QueueRun> {
     let hw = hardware(input, cfg)?;
+    let sector_rays: Vec<usize> = input.sectors.iter().flatten().map(Vec::len).collect();
     if params_of(input, &hw, spec)? != walks.params
         || hw.machine.request_queue_capacity != walks.request_capacity
+        || input.records.len() != walks.rays
+        || sector_rays != walks.sector_rays
     {
         return Err(Error::Check(
-            "the machine's CTUs differ from those the walks were taken with: walk again".into(),
+            "the machine's CTUs or sectors differ from those the walks were taken with: walk again"
+                .into(),
         ));
     }
     let t0 = Instant::now();

@@ -6,8 +6,8 @@
 //! - **Cell traversal** (one per CTU): the trace's traversal cycles, request by request; a
 //!   request waits for room when `request_queue_capacity` of its CTU's are at the arbiter.
 //! - **Global memory**: one port; a grant (round-robin over the CTUs, or fixed priority)
-//!   holds it one cycle per word; the record reaches its CTU `latency + words + 1` cycles
-//!   after the grant.
+//!   holds it one cycle per word; the record reaches its cluster's patch buffer
+//!   `latency + words + 2` cycles after the grant.
 //! - **Ray buffer + ICU** (one per cluster): a FIFO of jobs drained one per cycle. A batch
 //!   entering at t behind `q` queued jobs has its last result back at `t + q + n + depth`
 //!   (the CTU's issuer or the descriptor's expansion feeds one job per cycle, the ICU takes
@@ -117,13 +117,14 @@ enum Ev {
     TravEnd(usize),
     /// The memory port may grant.
     Grant,
-    /// A patch of (CTU, subshell) reaches its CTU with its jobs.
+    /// A patch of (CTU, subshell) with its jobs leaves the memory for its cluster's patch
+    /// buffer.
     Arrive(usize, usize, u32),
     /// CTU's issuer has issued its batch.
     Issued(usize),
     /// A batch (or a moved part of one) is back: (batch, version).
     Back(usize, u32),
-    /// The thief's ICU starts on a moved batch: (batch, version).
+    /// A moved batch's first result leaves the thief's ICU: (batch, version).
     HomeStart(usize, u32),
     /// Cluster's queue may have reached its low-water mark: (cluster, version).
     Starve(usize, u32),
@@ -153,7 +154,7 @@ struct Batch {
     /// The cycle its last result reaches its CTU.
     home: u64,
     /// A moved batch's results hold their place on the owner's return port (from the cycle
-    /// the thief's ICU starts on it).
+    /// its first result leaves the thief's ICU).
     reserved: bool,
     version: u32,
     done: bool,
@@ -182,7 +183,6 @@ struct CtuRt {
 struct ClusterRt {
     backlog: u64,
     last: u64,
-    served: u64,
     /// The batches in the queue, oldest first (a split cuts the last; served and emptied
     /// ones leave lazily).
     queue: VecDeque<usize>,
@@ -647,7 +647,7 @@ impl Net<'_> {
             self.at(back, Ev::Back(id, 0));
         } else {
             // Moved results share their owner cluster's return port, one per cycle: the
-            // batch takes its place there when the thief's ICU starts on it.
+            // batch takes its place there when its first result leaves the thief's ICU.
             self.at(back.saturating_sub(n).max(self.now), Ev::HomeStart(id, 0));
         }
         self.check_starve(k);
@@ -657,9 +657,7 @@ impl Net<'_> {
     fn advance(&mut self, k: usize, t: u64) {
         let cl = &mut self.clusters[k];
         if t > cl.last {
-            let served = cl.backlog.min(t - cl.last);
-            cl.backlog -= served;
-            cl.served += served;
+            cl.backlog -= cl.backlog.min(t - cl.last);
             cl.last = t;
         }
         if cl.backlog == 0 {
@@ -752,8 +750,8 @@ impl Net<'_> {
                 self.at(now + 2, Ev::Split(v, thief))
             }
             None => {
-                self.out.retries += 1;
                 if self.work_left() {
+                    self.out.retries += 1;
                     self.at(now + self.p.sampling_interval, Ev::Retry(thief));
                 } else {
                     self.clusters[thief].requesting = false;

@@ -12,8 +12,9 @@
 //! the datapath.
 //!
 //! **Invariant:** without overlapped joins the trace is timing-free — the same requests in
-//! the same order, the same jobs per patch, the same traversal cycles as the CTU spends
-//! outside JOIN in any machine. With overlapped joins the traversal skips rays whose hit so
+//! the same order and the same jobs per patch as in any machine, and the traversal cycles
+//! the CTU spends outside JOIN against a memory that takes each request the cycle after it
+//! (the network adds the stalls of a full request queue). With overlapped joins the traversal skips rays whose hit so
 //! far already retires them, which depends on when results come back; the trace is the
 //! walk with results at once (the network's error includes this).
 
