@@ -215,6 +215,8 @@ struct Net<'a> {
     home_free: Vec<u64>,
     /// Events in the heap other than the balancer's own timers.
     live: u64,
+    /// CTUs that have not joined their last subshell.
+    unfinished: usize,
     out: Estimate,
 }
 
@@ -250,6 +252,7 @@ pub fn estimate(p: NetParams, traces: &[CtuTrace]) -> Result<Estimate, String> {
         next_victim: 0,
         home_free: vec![0; p.clusters],
         live: 0,
+        unfinished: traces.iter().filter(|t| !t.subshells.is_empty()).count(),
         out: Estimate {
             icu_jobs: vec![0; p.clusters],
             ctu_finish: vec![0; traces.len()],
@@ -510,12 +513,12 @@ impl Net<'_> {
         }
         let s = r.sub;
         if r.at_end && r.pend[s] == 0 && r.open[s] == 0 {
-            r.joined = s + 1;
             r.sub += 1;
             r.next = 0;
             r.at_end = false;
             r.start = now + 1;
             r.finish = now;
+            self.joined(c, s);
             self.schedule_traversal(c);
         }
     }
@@ -530,8 +533,8 @@ impl Net<'_> {
             return;
         }
         r.draining = None;
-        r.joined = d + 1;
         r.finish = now;
+        self.joined(c, d);
         // An arrival held for this join goes to the ray buffer.
         self.take(c);
         if self.ctus[c].at_end {
@@ -643,14 +646,28 @@ impl Net<'_> {
         let back = self.enqueue(k, n, Some((id, t)));
         self.batches[id].back_at = back;
         self.batches[id].home = back;
-        if ret == 0 {
-            self.at(back, Ev::Back(id, 0));
-        } else {
-            // Moved results share their owner cluster's return port, one per cycle: the
-            // batch takes its place there when its first result leaves the thief's ICU.
-            self.at(back.saturating_sub(n).max(self.now), Ev::HomeStart(id, 0));
-        }
+        self.schedule_return(id);
         self.check_starve(k);
+    }
+
+    /// Schedules batch `id`'s return at its current version: its Back when its last result
+    /// reaches its CTU, at once when splits left it nothing (its back time counted jobs
+    /// ahead of it that later cuts may have taken); a moved batch not yet on its owner's
+    /// return port (one result per cycle) first takes its place there, when its first
+    /// result leaves the thief's ICU.
+    fn schedule_return(&mut self, id: usize) {
+        let b = self.batches[id];
+        if b.jobs > 0 && b.ret > 0 && !b.reserved {
+            let start = b.home.saturating_sub(b.jobs).max(self.now);
+            self.at(start, Ev::HomeStart(id, b.version));
+        } else {
+            let back = if b.jobs == 0 {
+                self.now
+            } else {
+                b.home.max(self.now)
+            };
+            self.at(back, Ev::Back(id, b.version));
+        }
     }
 
     /// Brings cluster `k`'s queue to now.
@@ -718,10 +735,15 @@ impl Net<'_> {
 
     /// True while some CTU has not finished (requests stop once all have).
     fn work_left(&self) -> bool {
-        self.ctus
-            .iter()
-            .zip(self.traces)
-            .any(|(r, t)| r.joined < t.subshells.len())
+        self.unfinished > 0
+    }
+
+    /// CTU `c` has joined subshell `s`.
+    fn joined(&mut self, c: usize, s: usize) {
+        self.ctus[c].joined = s + 1;
+        if s + 1 == self.traces[c].subshells.len() {
+            self.unfinished -= 1;
+        }
     }
 
     fn find_victim(&mut self, thief: usize) {
@@ -813,20 +835,12 @@ impl Net<'_> {
         } else {
             bt.back_at
         };
-        let (id, home, version, jobs) = (b, bt.home, bt.version, bt.jobs);
+        let home = bt.home;
         let oc = self.ctus[batch.ctu].cluster;
         if batch.reserved && self.home_free[oc] == old_home {
             self.home_free[oc] = home;
         }
-        // A batch cut to nothing has no result of its own to wait for (its back time counted
-        // jobs ahead of it that later cuts may have taken).
-        if jobs > 0 && batch.ret > 0 && !batch.reserved {
-            let start = home.saturating_sub(jobs).max(now);
-            self.at(start, Ev::HomeStart(id, version));
-        } else {
-            let back = if jobs == 0 { now } else { home.max(now) };
-            self.at(back, Ev::Back(id, version));
-        }
+        self.schedule_return(b);
         self.clusters[v].backlog -= w;
         self.out.icu_jobs[v] -= w;
         self.ctus[batch.ctu].open[batch.sub] += 1;
