@@ -707,18 +707,10 @@ fn the_address_space_limit_binds_the_memory_estimate() {
 /// the design cannot take is refused.
 #[test]
 fn a_sampled_machine_matrix_brackets_the_full_run() {
-    use shellsim::radiosity::matrix::{compute, Model};
+    use shellsim::radiosity::matrix::compute;
     use shellsim::radiosity::sample::compute_sampled;
-    let scene = shellsim::scene::gen::corpus::subdivided_box(4, glam::DVec3::ONE, false);
-    let cfg = *shellsim::config::built_in();
+    let (scene, cfg, spec) = box_machine_matrix();
     let n = scene.patches.len() as u32;
-    let spec = shellsim::radiosity::matrix::MatrixSpec {
-        model: Model::Machine,
-        rays: 969,
-        directions: shellsim::reference::rays::Directions::Rings,
-        seed: 1,
-        sources: 0..n,
-    };
     let path = Path::new("box-4");
     let full = compute(&scene, path, &cfg, &spec, false).unwrap();
     let truth: u64 = full.machine.iter().map(|m| m.cycles).sum();
@@ -737,22 +729,31 @@ fn a_sampled_machine_matrix_brackets_the_full_run() {
     }
 }
 
-/// `matrix --model machine --timing queue`: the same matrix as the cycle model's (every row
-/// from the untimed model, which the machine equals), each row's cycles from the queueing
-/// network within 5 % of the cycle model's and the total within 2 %.
-#[test]
-fn a_queue_timed_machine_matrix_matches_the_cycle_model() {
-    use shellsim::radiosity::matrix::{compute, compute_timed, Model};
+/// The 96-patch box's whole matrix on the machine model, 969 rings rays a row, paper.toml.
+fn box_machine_matrix() -> (
+    shellsim::Scene,
+    shellsim_hw::config::MachineConfig,
+    shellsim::radiosity::matrix::MatrixSpec,
+) {
     let scene = shellsim::scene::gen::corpus::subdivided_box(4, glam::DVec3::ONE, false);
-    let cfg = *shellsim::config::built_in();
     let n = scene.patches.len() as u32;
     let spec = shellsim::radiosity::matrix::MatrixSpec {
-        model: Model::Machine,
+        model: shellsim::radiosity::matrix::Model::Machine,
         rays: 969,
         directions: shellsim::reference::rays::Directions::Rings,
         seed: 1,
         sources: 0..n,
     };
+    (scene, *shellsim::config::built_in(), spec)
+}
+
+/// `matrix --model machine --timing queue`: the same matrix as the cycle model's (every row
+/// from the untimed model, which the machine equals), each row's cycles from the queueing
+/// network within 5 % of the cycle model's and the total within 2 %.
+#[test]
+fn a_queue_timed_machine_matrix_matches_the_cycle_model() {
+    use shellsim::radiosity::matrix::{compute, compute_timed};
+    let (scene, cfg, spec) = box_machine_matrix();
     let path = Path::new("box-4");
     let full = compute(&scene, path, &cfg, &spec, false).unwrap();
     let q = compute_timed(&scene, path, &cfg, &spec, false, true).unwrap();

@@ -222,9 +222,7 @@ pub fn summary(rows: &[LevelRow]) -> String {
             r.wall_untimed_s
         );
     }
-    let n = rows.len().max(1) as f64;
-    let mean = rows.iter().map(|r| r.error.abs()).sum::<f64>() / n;
-    let max = rows.iter().map(|r| r.error.abs()).fold(0.0, f64::max);
+    let (mean, max) = abs_errors(rows);
     let cycle: f64 = rows.iter().map(|r| r.wall_cycle_s).sum();
     let qt: f64 = rows.iter().map(|r| r.wall_queue_s).sum();
     let qu: f64 = rows.iter().map(|r| r.wall_untimed_s).sum();
@@ -253,6 +251,14 @@ pub fn svg(title: &str, rows: &[LevelRow]) -> Result<String> {
     )
 }
 
+/// Mean and max |error| of `rows` (0 for none).
+fn abs_errors(rows: &[LevelRow]) -> (f64, f64) {
+    let n = rows.len().max(1) as f64;
+    let mean = rows.iter().map(|r| r.error.abs()).sum::<f64>() / n;
+    let max = rows.iter().map(|r| r.error.abs()).fold(0.0, f64::max);
+    (mean, max)
+}
+
 /// One of the paper's figures re-measured at both levels, on one scene and configuration.
 #[derive(Clone, Debug)]
 pub struct FigureLevels {
@@ -264,10 +270,7 @@ pub struct FigureLevels {
 
 impl FigureLevels {
     fn errors(&self) -> (f64, f64) {
-        let n = self.rows.len().max(1) as f64;
-        let mean = self.rows.iter().map(|r| r.error.abs()).sum::<f64>() / n;
-        let max = self.rows.iter().map(|r| r.error.abs()).fold(0.0, f64::max);
-        (mean, max)
+        abs_errors(&self.rows)
     }
 
     fn efficiency_error(&self) -> f64 {
@@ -450,14 +453,14 @@ pub fn section(figs: &[FigureLevels]) -> String {
             f.efficiency_error(),
         );
     }
-    let all: Vec<&LevelRow> = figs.iter().flat_map(|f| &f.rows).collect();
-    let n = all.len().max(1) as f64;
+    let all: Vec<LevelRow> = figs.iter().flat_map(|f| f.rows.iter().cloned()).collect();
+    let (mean, max) = abs_errors(&all);
     let _ = writeln!(
         s,
         "\nOver all {} machines: mean abs Δcycles {:.1}%, max {:.1}% (targets 5 % and 10 %).",
         all.len(),
-        100.0 * all.iter().map(|r| r.error.abs()).sum::<f64>() / n,
-        100.0 * all.iter().map(|r| r.error.abs()).fold(0.0, f64::max)
+        100.0 * mean,
+        100.0 * max
     );
     s
 }
