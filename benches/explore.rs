@@ -1,11 +1,14 @@
 //! Design points per hour of `shellsim explore` on scene2 at ratio 1 (969 rays from patch 0,
 //! paper.toml): one point measured by `explore::evaluate` on the fixed and machine levels —
 //! the level's rays, the float model on the same rays, the errors, the cost, and for the
-//! machine the cycle-level run checked against the untimed model. Points per hour per core
+//! machine the cycle-level run checked against the untimed model (`machine`) or the queueing
+//! network's estimate (`machine-queue`, `timing = "queue"`). Points per hour per core
 //! = 3600 s / the time per point (BENCHMARKS.md).
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use shellsim::explore::spec::Timing;
 use shellsim::explore::{evaluate, spec};
+use shellsim::radiosity::matrix::Model;
 use std::hint::black_box;
 use std::path::Path;
 
@@ -21,9 +24,15 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("explore_point_scene2_ratio1");
     g.sample_size(10);
     for p in &s.points {
-        g.bench_function(p.level.name(), |b| {
-            b.iter(|| black_box(evaluate(&s, p, &reference).expect("measures")))
-        });
+        let mut timings = vec![(p.level.name().to_string(), Timing::Cycle)];
+        if p.level == Model::Machine {
+            timings.push(("machine-queue".into(), Timing::Queue));
+        }
+        for (name, t) in timings {
+            g.bench_function(name, |b| {
+                b.iter(|| black_box(evaluate(&s, p, &reference, t).expect("measures")))
+            });
+        }
     }
     g.finish();
 }

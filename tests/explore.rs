@@ -279,7 +279,31 @@ fn missing_source() {
     );
 }
 
+fn bad_timing() {
+    refused(
+        &tiny_spec("timing = \"fast\"\n"),
+        &["line 6", "timing", "fast", "cycle, queue or auto"],
+    );
+}
+
+fn a_margin_without_auto() {
+    refused(
+        &tiny_spec("auto_margin = 0.2\n"),
+        &["line 6", "auto_margin", "only with timing = \"auto\""],
+    );
+}
+
+fn margin_out_of_range() {
+    refused(
+        &tiny_spec("timing = \"auto\"\nauto_margin = 1.5\n"),
+        &["line 7", "auto_margin", "not in (0, 1)"],
+    );
+}
+
 testcases! { refused_case;
+    an_unknown_timing_level => bad_timing;
+    a_margin_without_auto_timing => a_margin_without_auto;
+    a_margin_out_of_range => margin_out_of_range;
     a_malformed_spec => malformed;
     an_unknown_configuration_key => unknown_key;
     an_unknown_spec_key => unknown_top_key;
@@ -743,4 +767,97 @@ fn a_reference_too_big_for_the_memory_limit_is_refused() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("reference_rays: 100000000"), "{err}");
     assert!(err.contains("more than the limit of 2.1 GB"), "{err}");
+}
+
+/// The machine points of a study run with `--timing T` into a new directory: points.csv's
+/// rows by index, and front.csv's cycles rows (without the timing column).
+fn timed_study(spec: &Path, timing: &str) -> (PathBuf, Vec<Vec<String>>, Vec<String>) {
+    let out = keep().join(timing);
+    let o = shellsim(
+        &[
+            "explore",
+            "run",
+            "--space",
+            spec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--timing",
+            timing,
+        ],
+        Some(2),
+    );
+    ok(&o, &format!("explore run --timing {timing}"));
+    let csv = std::fs::read_to_string(out.join("points.csv")).unwrap();
+    let rows: Vec<Vec<String>> = csv
+        .lines()
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    let front = std::fs::read_to_string(out.join("front.csv")).unwrap();
+    let cycles: Vec<String> = front
+        .lines()
+        .filter(|l| l.starts_with("cycles,"))
+        .map(|l| l.rsplit_once(',').unwrap().0.to_string())
+        .collect();
+    (out, rows, cycles)
+}
+
+/// `timing = "auto"` on a sweep of machine shapes and buffers over two scenes: the front of
+/// error against cycles is the all-cycle run's, row for row; fewer points ran at the cycle
+/// level; those that did have the cycle run's cycles exactly, the others the queueing
+/// network's estimate; the report says which level decided. A sharded auto run is refused.
+#[test]
+fn auto_timing_finds_the_all_cycle_front_with_fewer_cycle_runs() {
+    let spec = spec_file(&format!(
+        "reference_rays = 20000\nscene = [{:?}, {:?}]\nlevel = \"machine\"\nratio = [1, 2]\nfrac_bits = [9, 12]\nmachine.clusters = [1, 2, 4]\nmachine.ctus_per_cluster = [1, 2]\nmachine.patch_buffer_capacity = [2, 8]\n",
+        common::scene_path("scene1.json").display().to_string(),
+        common::scene_path("cornell.json").display().to_string()
+    ));
+    let (_, cyc, cyc_front) = timed_study(&spec, "cycle");
+    let (out, auto, auto_front) = timed_study(&spec, "auto");
+    assert_eq!(cyc_front, auto_front, "the fronts of error against cycles");
+    assert!(!cyc_front.is_empty());
+    let col = |name: &str| cyc[0].iter().position(|h| h == name).unwrap();
+    let (cycles, timing, queue) = (col("cycles"), col("timing"), col("queue_cycles"));
+    assert_eq!(cyc.len(), 97, "a header and 96 points");
+    let mut at_cycle = 0;
+    for (c, a) in cyc.iter().zip(&auto).skip(1) {
+        assert_eq!(c[timing], "cycle");
+        assert_eq!(c[queue], "");
+        match a[timing].as_str() {
+            "cycle" => {
+                at_cycle += 1;
+                assert_eq!(a[cycles], c[cycles], "point {}", a[0]);
+            }
+            "queue" => assert_eq!(a[cycles], a[queue], "point {}", a[0]),
+            t => panic!("point {}: timing {t:?}", a[0]),
+        }
+        assert!(!a[queue].is_empty(), "point {}: no queue estimate", a[0]);
+    }
+    assert!(
+        at_cycle < 96 / 2,
+        "{at_cycle} of 96 points ran at the cycle level"
+    );
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains(&format!("| 96 | {at_cycle} | {} |", 96 - at_cycle)),
+        "{report}"
+    );
+    let shard = keep().join("shard");
+    let o = shellsim(
+        &[
+            "explore",
+            "run",
+            "--space",
+            spec.to_str().unwrap(),
+            "--out",
+            shard.to_str().unwrap(),
+            "--timing",
+            "auto",
+            "--shard",
+            "0/2",
+        ],
+        None,
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unsharded"));
 }

@@ -33,6 +33,11 @@ pub struct RunArgs {
     /// SLURM_ARRAY_TASK_ID and SLURM_ARRAY_TASK_COUNT when they are set.
     #[arg(long, value_name = "K/N", value_parser = Shard::parse)]
     pub shard: Option<Shard>,
+    /// Time the machine points at this level instead of the spec's `timing`: `cycle`, `queue`
+    /// (the queueing network), or `auto` (the network, then the cycle model only for the
+    /// points that may reach the front; unsharded). Part of the spec's hash.
+    #[arg(long, value_enum)]
+    pub timing: Option<spec::Timing>,
 }
 
 /// Arguments of `shellsim explore merge`.
@@ -72,7 +77,10 @@ pub fn run(c: &ExploreCmd) -> Result<()> {
                 Some(s) => Some(s),
                 None => Shard::from_slurm().map_err(Error::Usage)?,
             };
-            let s = spec::load(&a.space)?;
+            let mut s = spec::load(&a.space)?;
+            if let Some(t) = a.timing {
+                s = s.with_timing(t);
+            }
             let r = explore::run(&s, &a.out, shard, true)?;
             outln!(
                 "{}: {} points{} ({} measured, {} already there) into {}",
@@ -103,6 +111,12 @@ pub fn run(c: &ExploreCmd) -> Result<()> {
             );
             check_outputs(&outs)?;
             let s = spec::load(&a.space)?;
+            if s.timing == spec::Timing::Auto && a.tasks > 1 {
+                return Err(Error::Usage(format!(
+                    "{}: timing = \"auto\" screens each scene's machine points together, so it runs unsharded: use --tasks 1, or timing = \"cycle\" or \"queue\"",
+                    a.space.display()
+                )));
+            }
             explore::check_points(&s)?;
             let dir = slurm::write(&a.space, a.tasks, &a.out, a.bin.as_deref())?;
             outln!(

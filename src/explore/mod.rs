@@ -17,6 +17,7 @@
 //! sharding or resumption. Wall-clock figures live in `host.csv`, `host-front.csv` and the
 //! wall-time chart, which nothing compares.
 
+pub mod auto;
 pub mod front;
 pub mod report;
 pub mod slurm;
@@ -30,7 +31,7 @@ use crate::reference::rays::Directions;
 use crate::size::{self, Cost};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use spec::{Axis, Knob, Point, Spec};
+use spec::{Axis, Knob, Point, Spec, Timing};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -140,6 +141,12 @@ pub struct PointResult {
     pub pipeline_efficiency: Option<f64>,
     pub bound_cycles: Option<u64>,
     pub binds: Option<String>,
+    /// The machine: the level that gave `cycles` (`cycle` or `queue`), and the queueing
+    /// network's estimate when it ran (`timing = "queue"` or `"auto"`).
+    #[serde(default)]
+    pub timing: Option<Timing>,
+    #[serde(default)]
+    pub queue_cycles: Option<u64>,
     /// The hardware cost (fixed and machine levels): `shellsim size`'s model.
     pub cost: Option<Cost>,
 }
@@ -359,13 +366,20 @@ pub fn check_points(spec: &Spec) -> Result<()> {
     Ok(())
 }
 
-/// Measures point `pt` against `reference` (by patch).
-pub fn evaluate(spec: &Spec, pt: &Point, reference: &[f64]) -> Result<(PointResult, HostFigures)> {
+/// Measures point `pt` against `reference` (by patch); a machine point is timed at `timing`
+/// (the cycle model, or the queueing network over the untimed model's results).
+pub fn evaluate(
+    spec: &Spec,
+    pt: &Point,
+    reference: &[f64],
+    timing: Timing,
+) -> Result<(PointResult, HostFigures)> {
     let start = std::time::Instant::now();
     let sc = &spec.scenes[pt.scene];
     let scene = &sc.scene;
     let n = scene.patches.len();
-    let sh = Shared::new(scene, &sc.path, &pt.config, pt.level)?;
+    let mut sh = Shared::new(scene, &sc.path, &pt.config, pt.level)?;
+    sh.queue_timing = timing == Timing::Queue;
     let run = run_row(&sh, &pt.matrix_spec(pt.level), pt.source)?;
     let mismatches_vs_float = if pt.level == Model::Float {
         0
@@ -391,21 +405,9 @@ pub fn evaluate(spec: &Spec, pt: &Point, reference: &[f64]) -> Result<(PointResu
         Some(host) => Some(size::cost_on(&resolved, scene, &sc.path, host)?),
         None => None,
     };
-    let stats = run.stats.as_ref();
-    if let Some(s) = stats {
-        if s.mismatches_vs_fixed != 0 {
-            return Err(Error::Check(format!(
-                "point {} ({}): the machine differs from the untimed model on {} rays",
-                pt.index,
-                pt.label(),
-                s.mismatches_vs_fixed
-            )));
-        }
-    }
-    let bound = stats.map(|s| Bound::of(s, &resolved));
     let d = &resolved.datapath;
     let m = &resolved.machine;
-    let result = PointResult {
+    let mut result = PointResult {
         index: pt.index,
         scene: scene.name.clone(),
         source: pt.source,
@@ -432,18 +434,251 @@ pub fn evaluate(spec: &Spec, pt: &Point, reference: &[f64]) -> Result<(PointResu
         sampling_err: samp,
         err_over_sampling: if samp > 0.0 { max / samp } else { 0.0 },
         mismatches_vs_float,
-        mismatches_vs_fixed: stats.map(|s| s.mismatches_vs_fixed),
-        cycles: stats.map(|s| s.cycles),
-        pipeline_efficiency: stats.map(|s| s.pipeline_efficiency),
-        bound_cycles: bound.map(|b| b.cycles()),
-        binds: bound.map(|b| b.binding().name().to_string()),
+        mismatches_vs_fixed: None,
+        cycles: None,
+        pipeline_efficiency: None,
+        bound_cycles: None,
+        binds: None,
+        timing: None,
+        queue_cycles: None,
         cost,
     };
+    let mut cycles_per_s = None;
+    if let Some(s) = run.stats.as_ref() {
+        cycles_per_s = Some(s.sim_rate_hz);
+        cycle_figures(&mut result, pt, s, &resolved)?;
+    } else if let Some(q) = run.queue.as_ref() {
+        result.cycles = Some(q.cycles);
+        result.pipeline_efficiency = Some(q.pipeline_efficiency);
+        result.timing = Some(Timing::Queue);
+        result.queue_cycles = Some(q.cycles);
+    }
     let host = HostFigures {
         wall_s: start.elapsed().as_secs_f64(),
-        cycles_per_s: stats.map(|s| s.sim_rate_hz),
+        cycles_per_s,
     };
     Ok((result, host))
+}
+
+/// Sets `p`'s machine figures from a cycle-level run's statistics, refusing a run that
+/// differs from the untimed model.
+fn cycle_figures(
+    p: &mut PointResult,
+    pt: &Point,
+    s: &crate::machine::run::RunStats,
+    resolved: &shellsim_hw::config::MachineConfig,
+) -> Result<()> {
+    if s.mismatches_vs_fixed != 0 {
+        return Err(Error::Check(format!(
+            "point {} ({}): the machine differs from the untimed model on {} rays",
+            pt.index,
+            pt.label(),
+            s.mismatches_vs_fixed
+        )));
+    }
+    let bound = Bound::of(s, resolved);
+    p.mismatches_vs_fixed = Some(s.mismatches_vs_fixed);
+    p.cycles = Some(s.cycles);
+    p.pipeline_efficiency = Some(s.pipeline_efficiency);
+    p.bound_cycles = Some(bound.cycles());
+    p.binds = Some(bound.binding().name().to_string());
+    p.timing = Some(Timing::Cycle);
+    Ok(())
+}
+
+/// Runs queue-timed machine point `f` at the cycle level: its cycles, efficiency and bound
+/// from the cycle model (checked ray for ray against the untimed model, whose results — and
+/// so the point's errors — it keeps), its queue estimate kept beside them.
+pub fn time_at_cycle(spec: &Spec, pt: &Point, f: &PointFile) -> Result<PointFile> {
+    let start = std::time::Instant::now();
+    let sc = &spec.scenes[pt.scene];
+    let sh = Shared::new(&sc.scene, &sc.path, &pt.config, Model::Machine)?;
+    let run = run_row(&sh, &pt.matrix_spec(Model::Machine), pt.source)?;
+    let s = run.stats.as_ref().expect("the cycle model's statistics");
+    let resolved = crate::config::resolve(&pt.config, sc.scene.size())?;
+    let mut point = f.point.clone();
+    cycle_figures(&mut point, pt, s, &resolved)?;
+    Ok(PointFile {
+        spec_hash: f.spec_hash.clone(),
+        point,
+        host: HostFigures {
+            wall_s: f.host.wall_s + start.elapsed().as_secs_f64(),
+            cycles_per_s: Some(s.sim_rate_hz),
+        },
+    })
+}
+
+/// What `timing = "auto"` did: the margins, how many machine points the cycle model ran,
+/// and the queue level's measured error on them (every figure deterministic).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct AutoSummary {
+    pub margin_start: f64,
+    /// The margin the screen ended with: the start, or 1.25 × the largest error measured.
+    pub margin: f64,
+    pub rounds: usize,
+    pub machine_points: usize,
+    pub cycle_runs: usize,
+    /// |queue − cycle| / cycle over the points run at both levels.
+    pub err_mean: f64,
+    pub err_max: f64,
+    /// The check sample (`auto_check` of the machine points, whatever the screen): its
+    /// size and the queue level's error on it.
+    pub check_share: f64,
+    pub check_points: usize,
+    pub check_mean: f64,
+    pub check_max: f64,
+}
+
+/// The relative error of the queue level on a point timed at both levels.
+fn queue_error(p: &PointResult) -> Option<f64> {
+    match (p.timing, p.queue_cycles, p.cycles) {
+        (Some(Timing::Cycle), Some(q), Some(c)) => {
+            Some((q as f64 - c as f64).abs() / (c as f64).max(1.0))
+        }
+        _ => None,
+    }
+}
+
+/// `timing = "auto"`: screens the queue-timed machine points of `files` (every one carries
+/// its queue estimate) and runs at the cycle level, round by round, the points that may
+/// reach the front of error against cycles in their scene and source ([`auto::candidates`]),
+/// until the margin covers every error measured. The rounds are replayed from the queue
+/// estimates, so a resumed run — whose files may already hold some rounds' cycle runs —
+/// picks the same points.
+fn auto_rounds(
+    spec: &Spec,
+    dir: &Path,
+    files: &mut BTreeMap<usize, PointFile>,
+    progress: bool,
+) -> Result<AutoSummary> {
+    let machine: Vec<usize> = files
+        .values()
+        .filter(|f| f.point.queue_cycles.is_some())
+        .map(|f| f.point.index)
+        .collect();
+    // Groups as the report draws them: by scene name and source.
+    let mut groups: BTreeMap<(String, u32), Vec<usize>> = BTreeMap::new();
+    for &i in &machine {
+        let p = &files[&i].point;
+        groups
+            .entry((p.scene.clone(), p.source))
+            .or_default()
+            .push(i);
+    }
+    // The check sample: a share of the machine points, drawn by a hash of the spec and the
+    // point (so the same whatever the screen), run at both levels in the first round.
+    let check: Vec<usize> = machine
+        .iter()
+        .copied()
+        .filter(|&i| {
+            let h = spec::fnv1a(
+                &(i as u64).to_le_bytes(),
+                spec::fnv1a(spec.hash.as_bytes(), spec::FNV_START),
+            );
+            ((h % 1_000_000) as f64) < spec.auto_check * 1e6
+        })
+        .collect();
+    let mut exact: std::collections::BTreeSet<usize> = Default::default();
+    let mut margin = spec.auto_margin;
+    let mut rounds = 0;
+    loop {
+        rounds += 1;
+        let mut picked: Vec<usize> = if rounds == 1 {
+            check.clone()
+        } else {
+            Vec::new()
+        };
+        for members in groups.values() {
+            let pts: Vec<auto::Screened> = members
+                .iter()
+                .map(|i| {
+                    let p = &files[i].point;
+                    let (lo, hi) = if exact.contains(i) {
+                        let c = p.cycles.expect("timed") as f64;
+                        (c, c)
+                    } else {
+                        auto::interval(p.queue_cycles.expect("screened") as f64, margin)
+                    };
+                    auto::Screened {
+                        err: p.ff_err_max,
+                        lo,
+                        hi,
+                    }
+                })
+                .collect();
+            let c = auto::candidates(&pts);
+            picked.extend(
+                members
+                    .iter()
+                    .zip(&c)
+                    .filter(|(i, &c)| c && !exact.contains(i))
+                    .map(|(&i, _)| i),
+            );
+        }
+        picked.sort_unstable();
+        picked.dedup();
+        let run: Vec<usize> = picked
+            .iter()
+            .copied()
+            .filter(|i| files[i].point.timing != Some(Timing::Cycle))
+            .collect();
+        let mut bar = (progress && !run.is_empty())
+            .then(|| crate::progress::Progress::new(run.len() as u64, "points at the cycle level"));
+        let block = (4 * rayon::current_num_threads()).max(8);
+        for chunk in run.chunks(block) {
+            let part: Vec<Result<PointFile>> = chunk
+                .par_iter()
+                .map(|&i| {
+                    let f = time_at_cycle(spec, &spec.points[i], &files[&i])?;
+                    output::write_json(&point_file(dir, i), &f)?;
+                    Ok(f)
+                })
+                .collect();
+            for f in part {
+                let f = f?;
+                files.insert(f.point.index, f);
+            }
+            if let Some(b) = bar.as_mut() {
+                b.inc(chunk.len() as u64);
+            }
+        }
+        if let Some(b) = bar {
+            b.finish();
+        }
+        exact.extend(picked.iter().copied());
+        let worst = exact
+            .iter()
+            .filter_map(|i| queue_error(&files[i].point))
+            .fold(0.0f64, f64::max);
+        let next = spec.auto_margin.max(1.25 * worst);
+        if picked.is_empty() && next <= margin {
+            break;
+        }
+        margin = margin.max(next);
+    }
+    let errs = |set: &mut dyn Iterator<Item = &usize>| -> (usize, f64, f64) {
+        let e: Vec<f64> = set.filter_map(|i| queue_error(&files[i].point)).collect();
+        (
+            e.len(),
+            e.iter().sum::<f64>() / e.len().max(1) as f64,
+            e.iter().fold(0.0, |a: f64, &b| a.max(b)),
+        )
+    };
+    let (_, err_mean, err_max) = errs(&mut exact.iter());
+    let (check_points, check_mean, check_max) = errs(&mut check.iter());
+    Ok(AutoSummary {
+        margin_start: spec.auto_margin,
+        margin,
+        rounds,
+        machine_points: machine.len(),
+        cycle_runs: exact.len(),
+        err_mean,
+        err_max,
+        check_share: spec.auto_check,
+        check_points,
+        check_mean,
+        check_max,
+    })
 }
 
 /// How a run went.
@@ -598,6 +833,11 @@ pub fn run(
     show_progress: bool,
 ) -> Result<RunSummary> {
     let shard = shard.filter(|s| s.n > 1);
+    if spec.timing == Timing::Auto && shard.is_some() {
+        return Err(Error::Usage(
+            "timing = \"auto\" screens each scene's machine points together, so it runs unsharded: drop --shard (and the Slurm array) or use timing = \"cycle\" or \"queue\"".into(),
+        ));
+    }
     let sf = spec_file(spec, shard);
     let mine: Vec<&Point> = spec
         .points
@@ -638,7 +878,11 @@ pub fn run(
         let part: Vec<Result<PointFile>> = chunk
             .par_iter()
             .map(|p| {
-                let (point, host) = evaluate(spec, p, &refs[&(p.scene, p.source)])?;
+                let timing = match spec.timing {
+                    Timing::Cycle => Timing::Cycle,
+                    Timing::Queue | Timing::Auto => Timing::Queue,
+                };
+                let (point, host) = evaluate(spec, p, &refs[&(p.scene, p.source)], timing)?;
                 let f = PointFile {
                     spec_hash: spec.hash.clone(),
                     point,
@@ -659,8 +903,12 @@ pub fn run(
     if let Some(p) = progress {
         p.finish();
     }
+    let auto = match spec.timing {
+        Timing::Auto => Some(auto_rounds(spec, dir, &mut done, show_progress)?),
+        _ => None,
+    };
     let files: Vec<PointFile> = done.into_values().collect();
-    report::write_all(dir, &sf, &files, shard.is_none())?;
+    report::write_all(dir, &sf, &files, shard.is_none(), auto.as_ref())?;
     Ok(RunSummary {
         points: files.len(),
         computed: pending.len(),
@@ -802,6 +1050,6 @@ pub fn merge(out: &Path, shards: &[PathBuf]) -> Result<usize> {
         output::write_json(&point_file(out, f.point.index), f)?;
     }
     let files: Vec<PointFile> = files.into_values().collect();
-    report::write_all(out, &whole, &files, true)?;
+    report::write_all(out, &whole, &files, true, None)?;
     Ok(files.len())
 }

@@ -5,8 +5,9 @@
 //! host-dependent front of error against wall time (`host-front.csv`, its SVG).
 
 use super::front::front;
+use super::spec::Timing;
 use super::spec::{knobs_label, Axis};
-use super::{PointFile, PointResult, SpecFile};
+use super::{AutoSummary, PointFile, PointResult, SpecFile};
 use crate::chart::explore::{svg, Dot, FrontChart};
 use crate::error::Result;
 use crate::output::{file_stem, json_string, write_atomic};
@@ -33,7 +34,7 @@ fn opt<T: std::fmt::Display>(v: Option<T>) -> String {
 }
 
 /// The header of points.csv.
-pub const POINTS_HEADER: &str = "index,scene,source,level,rays,directions,seed,knobs,frac_bits,t_frac_bits,coord_int_bits,t_int_bits,cell,shell_radius,clusters,ctus_per_cluster,ray_buffer,patch_buffer,request_queue,balance,work_item_jobs,ff_err_max,ff_err_rms,sampling_err,err_over_sampling,mismatches_vs_float,mismatches_vs_fixed,cycles,pipeline_efficiency,bound_cycles,binds,multiplier_bits,adder_bits,sram_bits,memory_words,total_bits,icu_cells,icu_cells_source,datapath_cells";
+pub const POINTS_HEADER: &str = "index,scene,source,level,rays,directions,seed,knobs,frac_bits,t_frac_bits,coord_int_bits,t_int_bits,cell,shell_radius,clusters,ctus_per_cluster,ray_buffer,patch_buffer,request_queue,balance,work_item_jobs,ff_err_max,ff_err_rms,sampling_err,err_over_sampling,mismatches_vs_float,mismatches_vs_fixed,cycles,timing,queue_cycles,pipeline_efficiency,bound_cycles,binds,multiplier_bits,adder_bits,sram_bits,memory_words,total_bits,icu_cells,icu_cells_source,datapath_cells";
 
 /// One row of points.csv.
 fn point_row(p: &PointResult) -> String {
@@ -67,6 +68,8 @@ fn point_row(p: &PointResult) -> String {
         p.mismatches_vs_float.to_string(),
         opt(p.mismatches_vs_fixed),
         opt(p.cycles),
+        opt(p.timing.map(Timing::name)),
+        opt(p.queue_cycles),
         opt(p.pipeline_efficiency.map(|e| format!("{e:.4}"))),
         opt(p.bound_cycles),
         opt(p.binds.clone()),
@@ -258,8 +261,17 @@ fn chart_name(g: &Group, a: Against) -> String {
     format!("front-{}-{}-{}.svg", a.name(), file_stem(g.scene), g.source)
 }
 
+/// A point's level as the report names it: `machine (queue)` when the queueing network
+/// gave its cycles.
+fn level_label(p: &PointResult) -> String {
+    match p.timing {
+        Some(Timing::Queue) => format!("{} (queue)", p.level.name()),
+        _ => p.level.name().to_string(),
+    }
+}
+
 /// The header of front.csv and host-front.csv.
-const FRONT_HEADER: &str = "front,scene,source,rank,index,level,knobs,x,ff_err_max\n";
+const FRONT_HEADER: &str = "front,scene,source,rank,index,level,knobs,x,ff_err_max,timing\n";
 
 /// The knobs that vary over the study (axes with more than one value).
 fn varying(axes: &[Axis]) -> Vec<&Axis> {
@@ -340,10 +352,15 @@ fn one_knob(g: &Group, p: &PointResult, axes: &[&Axis], a: Against) -> Vec<Strin
                 a.x(q),
             ) {
                 (Some(x0), Some(x1)) if x0 > 0.0 => format!(
-                    ", {} {} → {} ({:+.1} %)",
+                    ", {} {} → {}{} ({:+.1} %)",
                     a.name(),
                     a.show(x0),
                     a.show(x1),
+                    if a == Against::Cycles && q.point.timing == Some(Timing::Queue) {
+                        " (queue level)"
+                    } else {
+                        ""
+                    },
                     100.0 * (x1 - x0) / x0
                 ),
                 (_, None) => format!(", no {} at that level", a.name()),
@@ -366,7 +383,13 @@ fn one_knob(g: &Group, p: &PointResult, axes: &[&Axis], a: Against) -> Vec<Strin
 }
 
 /// Writes the tables into `dir`; for a whole run (`whole`) the fronts, charts and report too.
-pub fn write_all(dir: &Path, sf: &SpecFile, files: &[PointFile], whole: bool) -> Result<()> {
+pub fn write_all(
+    dir: &Path,
+    sf: &SpecFile,
+    files: &[PointFile],
+    whole: bool,
+    auto: Option<&AutoSummary>,
+) -> Result<()> {
     write_atomic(&dir.join("points.csv"), points_csv(files).as_bytes())?;
     let pj = PointsJson {
         spec_hash: &sf.spec_hash,
@@ -380,11 +403,20 @@ pub fn write_all(dir: &Path, sf: &SpecFile, files: &[PointFile], whole: bool) ->
     let axes = varying(&sf.axes);
     let mut front_csv = String::from(FRONT_HEADER);
     let mut host_front = String::from(FRONT_HEADER);
+    let queued = files
+        .iter()
+        .filter(|f| f.point.timing == Some(Timing::Queue))
+        .count();
     let mut md = format!(
-        "# {}\n\n{} design points (spec hash `{}`). The error of a point is the largest |F − F_ref| over patches, F_ref a float reference of many Malley rays per scene and source; ×σ is that error over the estimator's sampling error at the point's rays (max over patches of √(F(1−F)/N)). Every machine point equals the untimed fixed-point model ray for ray (0 mismatches, checked).\n\nKnobs varied: {}.\n",
+        "# {}\n\n{} design points (spec hash `{}`). The error of a point is the largest |F − F_ref| over patches, F_ref a float reference of many Malley rays per scene and source; ×σ is that error over the estimator's sampling error at the point's rays (max over patches of √(F(1−F)/N)). Every machine point run at the cycle level equals the untimed fixed-point model ray for ray (0 mismatches, checked){}.\n\nKnobs varied: {}.\n",
         sf.title,
         files.len(),
         sf.spec_hash,
+        if queued > 0 {
+            format!("; {queued} machine points are timed by the queueing network (`timing` queue: the untimed model's results, estimated cycles; docs/levels/ gives its error)")
+        } else {
+            String::new()
+        },
         if axes.is_empty() {
             "none".to_string()
         } else {
@@ -394,6 +426,24 @@ pub fn write_all(dir: &Path, sf: &SpecFile, files: &[PointFile], whole: bool) ->
                 .join("; ")
         }
     );
+    if let Some(a) = auto {
+        let _ = write!(
+            md,
+            "\n## Timing levels (`timing = \"auto\"`)\n\nEvery machine point was timed by the queueing network first. The cycle model then ran a check sample ({:.0} % of the machine points, drawn whatever the screen says) and the points that may reach the front of error against cycles in their scene and source — those no other point certainly dominates when each point's true cycles lie within the margin of its estimate — round after round until the margin covered the largest error measured ×1.25. Every point on a front of error against cycles below was run at the cycle level.\n\n| machine points | run at the cycle level | cycle runs saved | rounds | margin (start → end) | queue error, all run: mean | max | check sample: points | mean | max |\n| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n| {} | {} | {} | {} | {:.1} % → {:.1} % | {:.2} % | {:.2} % | {} | {:.2} % | {:.2} % |\n\nA point's `timing` column (points.csv) names the level that gave its cycles; `queue_cycles` is the network's estimate.\n",
+            100.0 * a.check_share,
+            a.machine_points,
+            a.cycle_runs,
+            a.machine_points - a.cycle_runs,
+            a.rounds,
+            100.0 * a.margin_start,
+            100.0 * a.margin,
+            100.0 * a.err_mean,
+            100.0 * a.err_max,
+            a.check_points,
+            100.0 * a.check_mean,
+            100.0 * a.check_max
+        );
+    }
     for g in groups(files) {
         let count = |l: Model| g.files.iter().filter(|f| f.point.level == l).count();
         let _ = write!(
@@ -431,7 +481,7 @@ pub fn write_all(dir: &Path, sf: &SpecFile, files: &[PointFile], whole: bool) ->
                 let f = g.files[i];
                 let _ = writeln!(
                     csv,
-                    "{},{},{},{},{},{},{},{},{:.6e}",
+                    "{},{},{},{},{},{},{},{},{:.6e},{}",
                     a.name(),
                     field(g.scene),
                     g.source,
@@ -440,7 +490,8 @@ pub fn write_all(dir: &Path, sf: &SpecFile, files: &[PointFile], whole: bool) ->
                     f.point.level.name(),
                     field(&knobs_label(&f.point.knobs)),
                     a.show(a.x(f).unwrap_or(f64::NAN)),
-                    f.point.ff_err_max
+                    f.point.ff_err_max,
+                    opt(f.point.timing.map(Timing::name))
                 );
             }
             if a == Against::Wall {
@@ -464,7 +515,7 @@ pub fn write_all(dir: &Path, sf: &SpecFile, files: &[PointFile], whole: bool) ->
                     md,
                     "| {} | {} | {} | {:.3e} | {:.2} | {} | {} |",
                     p.index,
-                    p.level.name(),
+                    level_label(p),
                     short_label(p, &axes),
                     p.ff_err_max,
                     p.err_over_sampling,

@@ -11,6 +11,9 @@
 //! title = "scene2, bits against clusters"   # optional, heads the report
 //! base = "paper"           # the configuration every point starts from: a name or a .toml file
 //! reference_rays = 200000  # optional: rays of the high-ray float reference
+//! timing = "auto"          # optional: the machine's timing level, cycle (default), queue or auto
+//! auto_margin = 0.10       # optional (auto): the queue level's assumed relative error at first
+//! auto_check = 0.10        # optional (auto): the share of machine points also run at the cycle level
 //! scene = "../../scenes/scene2.json"        # paths relative to this file
 //! level = ["fixed", "machine"]
 //! ratio = { from = 1, to = 3 }              # a range: from, to (inclusive), step (default 1)
@@ -29,6 +32,11 @@
 //! `[[point]]` blocks are single points (every value a scalar). A knob a point's level does
 //! not read (the float model reads only the rays and the grid, the fixed-point model also
 //! the datapath) is left out of that point, so it does not multiply the point.
+//!
+//! `timing` times every machine point with the cycle model (`cycle`), with the queueing
+//! network over the untimed model's results (`queue`, `shellsim run --level queue`), or
+//! (`auto`) with the network first and the cycle model only where a point may reach the
+//! front of error against cycles ([`crate::explore::auto`]).
 
 use crate::config::{self, ConfigSource};
 use crate::error::{Error, Result};
@@ -144,6 +152,36 @@ pub struct SpecScene {
     pub bytes_hash: u64,
 }
 
+/// The timing level of a spec's machine points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Timing {
+    /// The cycle-level machine.
+    Cycle,
+    /// The queueing network over the CTUs' walks (results from the untimed model).
+    Queue,
+    /// The network first; the cycle model for the points that may reach the front.
+    Auto,
+}
+
+impl Timing {
+    pub fn name(self) -> &'static str {
+        match self {
+            Timing::Cycle => "cycle",
+            Timing::Queue => "queue",
+            Timing::Auto => "auto",
+        }
+    }
+}
+
+/// The queue level's relative error `auto` assumes before it has measured any: the largest
+/// over the paper's 76 machines (9.8 %, docs/paper/levels.csv), rounded up.
+pub const AUTO_MARGIN: f64 = 0.10;
+
+/// The share of machine points `auto` runs at both levels whatever the screen says, so that
+/// the margin is measured on points the screen did not choose too.
+pub const AUTO_CHECK: f64 = 0.10;
+
 /// A parsed, expanded, validated spec.
 pub struct Spec {
     pub file: PathBuf,
@@ -153,13 +191,24 @@ pub struct Spec {
     pub axes: Vec<Axis>,
     /// Rays of the float reference, when the spec sets them.
     pub reference_rays: Option<usize>,
+    /// The machine points' timing level, and `auto`'s first margin.
+    pub timing: Timing,
+    pub auto_margin: f64,
+    pub auto_check: f64,
     /// A hash of everything the results depend on (the points, their configurations, the
     /// scenes' bytes, the reference): shards of one spec carry the same.
     pub hash: String,
 }
 
 /// Keys only the top level may hold.
-const TOP_ONLY: [&str; 3] = ["title", "base", "reference_rays"];
+const TOP_ONLY: [&str; 6] = [
+    "title",
+    "base",
+    "reference_rays",
+    "timing",
+    "auto_margin",
+    "auto_check",
+];
 
 /// The knobs a point takes besides the configuration's tables.
 const POINT_KEYS: [&str; 10] = [
@@ -491,6 +540,65 @@ pub fn parse(text: &str, file: &Path) -> Result<Spec> {
         }
         Some((_, l)) => return Err(p.err(l, "reference_rays", "is not a ray count")),
     };
+    let timing = match one("timing")? {
+        None => Timing::Cycle,
+        Some((Val::Str(s), l)) => match s.as_str() {
+            "cycle" => Timing::Cycle,
+            "queue" => Timing::Queue,
+            "auto" => Timing::Auto,
+            _ => {
+                return Err(p.err(
+                    l,
+                    "timing",
+                    format!("{s:?} is not a timing level (cycle, queue or auto)"),
+                ))
+            }
+        },
+        Some((_, l)) => return Err(p.err(l, "timing", "is not a string (cycle, queue or auto)")),
+    };
+    let auto_margin = match one("auto_margin")? {
+        None => AUTO_MARGIN,
+        Some((Val::Float(m), l)) => {
+            if !(m > 0.0 && m < 1.0) {
+                return Err(p.err(l, "auto_margin", format!("{m} is not in (0, 1)")));
+            }
+            if timing != Timing::Auto {
+                return Err(p.err(l, "auto_margin", "is read only with timing = \"auto\""));
+            }
+            m
+        }
+        Some((_, l)) => {
+            return Err(p.err(
+                l,
+                "auto_margin",
+                "is not a relative error (a number in (0, 1))",
+            ))
+        }
+    };
+    let auto_check = match one("auto_check")? {
+        None => AUTO_CHECK,
+        Some((v @ (Val::Float(_) | Val::Int(_)), l)) => {
+            let c = match v {
+                Val::Float(c) => c,
+                Val::Int(i) => i as f64,
+                _ => unreachable!("matched above"),
+            };
+            if !(0.0..=1.0).contains(&c) {
+                return Err(p.err(l, "auto_check", format!("{c} is not in [0, 1]")));
+            }
+            if timing != Timing::Auto {
+                return Err(p.err(l, "auto_check", "is read only with timing = \"auto\""));
+            }
+            c
+        }
+        Some((_, l)) => {
+            return Err(p.err(
+                l,
+                "auto_check",
+                "is not a share of the machine points (a number in [0, 1])",
+            ))
+        }
+    };
     top.retain(|e| !TOP_ONLY.contains(&e.key.as_str()));
     // The products: the top level alone, or one per block.
     let mut products: Vec<Vec<Entry>> = Vec::new();
@@ -590,16 +698,30 @@ pub fn parse(text: &str, file: &Path) -> Result<Spec> {
             }
         }
     }
-    let hash = spec_hash(&b.points, &b.scenes, reference_rays);
-    Ok(Spec {
+    let mut spec = Spec {
         file: file.to_path_buf(),
         title,
         scenes: b.scenes,
         points: b.points,
         axes: b.axes,
         reference_rays,
-        hash,
-    })
+        timing,
+        auto_margin,
+        auto_check,
+        hash: String::new(),
+    };
+    spec.hash = spec_hash(&spec);
+    Ok(spec)
+}
+
+impl Spec {
+    /// The spec timed at level `t` instead of its own (`explore run --timing`), its hash
+    /// recomputed.
+    pub fn with_timing(mut self, t: Timing) -> Spec {
+        self.timing = t;
+        self.hash = spec_hash(&self);
+        self
+    }
 }
 
 /// Builds points from chosen values.
@@ -935,14 +1057,14 @@ pub fn fnv1a(bytes: &[u8], mut h: u64) -> u64 {
 pub const FNV_START: u64 = 0xcbf2_9ce4_8422_2325;
 
 /// The spec's hash: its points (levels, rays, configurations, knobs), the scenes' names
-/// and bytes, the reference's ray count.
-fn spec_hash(points: &[Point], scenes: &[SpecScene], reference_rays: Option<usize>) -> String {
+/// and bytes, the reference's ray count and, unless it is the cycle level, the timing.
+fn spec_hash(spec: &Spec) -> String {
     let mut h = fnv1a(b"shellsim explore 1\n", FNV_START);
-    for s in scenes {
+    for s in &spec.scenes {
         h = fnv1a(s.scene.name.as_bytes(), h);
         h = fnv1a(&s.bytes_hash.to_le_bytes(), h);
     }
-    for pt in points {
+    for pt in &spec.points {
         let line = format!(
             "{} {} {} {} {} {:?} {} {}\n",
             pt.index,
@@ -960,6 +1082,15 @@ fn spec_hash(points: &[Point], scenes: &[SpecScene], reference_rays: Option<usiz
             h,
         );
     }
-    h = fnv1a(format!("{reference_rays:?}").as_bytes(), h);
+    h = fnv1a(format!("{:?}", spec.reference_rays).as_bytes(), h);
+    if spec.timing != Timing::Cycle {
+        let t = format!(
+            "timing {} {} {}",
+            spec.timing.name(),
+            spec.auto_margin,
+            spec.auto_check
+        );
+        h = fnv1a(t.as_bytes(), h);
+    }
     format!("{h:016x}")
 }
