@@ -842,6 +842,43 @@ fn auto_timing_finds_the_all_cycle_front_with_fewer_cycle_runs() {
         report.contains(&format!("| 96 | {at_cycle} | {} |", 96 - at_cycle)),
         "{report}"
     );
+    // Interrupted after some cycle-level runs: the same points run at the same levels.
+    let before: Vec<Vec<u8>> = ["points.csv", "report.md", "front.csv"]
+        .iter()
+        .map(|f| std::fs::read(out.join(f)).unwrap())
+        .collect();
+    let gone: Vec<&Vec<String>> = auto
+        .iter()
+        .skip(1)
+        .filter(|r| r[timing] == "cycle")
+        .take(3)
+        .chain(auto.iter().skip(1).filter(|r| r[timing] == "queue").take(2))
+        .collect();
+    for r in &gone {
+        let i: usize = r[0].parse().unwrap();
+        std::fs::remove_file(out.join("points").join(format!("{i:06}.json"))).unwrap();
+    }
+    let o = shellsim(
+        &[
+            "explore",
+            "run",
+            "--space",
+            spec.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--timing",
+            "auto",
+        ],
+        Some(1),
+    );
+    ok(&o, "the resumed auto run");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("5 measured, 91 already there"));
+    for (f, b) in ["points.csv", "report.md", "front.csv"].iter().zip(&before) {
+        assert!(
+            &std::fs::read(out.join(f)).unwrap() == b,
+            "{f} differs after resuming"
+        );
+    }
     let shard = keep().join("shard");
     let o = shellsim(
         &[
