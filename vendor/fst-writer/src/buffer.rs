@@ -6,12 +6,11 @@
 // shellsim: the value changes of a section are kept in one chain per signal (a `Vec<u8>`
 // each, recycled from section to section) instead of back-linked lists through one buffer,
 // so a flush hands the chains over as they are; `signal_change_u64` takes a bit vector of
-// up to 64 bits as an integer and encodes it without an ASCII round trip; a flush can hand
-// its section to a writer thread (see `writer.rs`).
+// up to 64 bits as an integer and encodes it without an ASCII round trip; a flush hands
+// its section over whole (to the compressor thread, see `writer.rs`). Reals are gone.
 
 use crate::io::{
-    FstCompression, Section, is_digital, write_multi_bit_signal, write_one_bit_signal,
-    write_time_chain_update, write_variant_u64,
+    FstCompression, Section, write_multi_bit_signal, write_one_bit_signal, write_time_chain_update,
 };
 use crate::{FstSignalId, FstSignalType, FstWriteError, Result};
 use std::borrow::Cow;
@@ -29,8 +28,6 @@ pub(crate) struct SignalBuffer {
     values: Box<[u8]>,
     /// the encoded value changes of each signal in this section
     chains: Vec<Vec<u8>>,
-    /// bytes in `chains`
-    chain_bytes: usize,
     /// contains the delta encoded timetable
     time_table: Vec<u8>,
     time_table_index: u32,
@@ -62,8 +59,6 @@ struct SignalState {
     offset: u32,
     /// time table index of the previous change
     prev_time_table_index: u32,
-    /// a real (8 bytes) rather than a bit vector
-    real: bool,
     int_state: IntState,
     /// the current value when last changed through `signal_change_u64`
     int: u64,
@@ -84,7 +79,6 @@ fn gen_signal_info(signals: &[FstSignalType]) -> (Box<[SignalState]>, usize) {
             len: signal.len(),
             offset,
             prev_time_table_index: 0,
-            real: signal.is_real(),
             int_state: IntState::None,
             int: 0,
         });
@@ -128,14 +122,7 @@ impl SignalBuffer {
         let (states, values_len) = gen_signal_info(signals);
         let chains = vec![Vec::new(); states.len()];
 
-        let mut values = vec![b'x'; values_len].into_boxed_slice();
-        // Initialize reals as NaN.
-        for info in states.iter() {
-            if info.real {
-                values[info.range()].copy_from_slice(&f64::NAN.to_le_bytes());
-            }
-        }
-
+        let values = vec![b'x'; values_len].into_boxed_slice();
         let frame = values.clone();
         let time_table = Vec::with_capacity(16);
         Ok(Self {
@@ -145,7 +132,6 @@ impl SignalBuffer {
             frame,
             values,
             chains,
-            chain_bytes: 0,
             time_table,
             time_table_index: 0,
             write_buf: vec![],
@@ -245,35 +231,7 @@ impl SignalBuffer {
                 [value] => write_one_bit_signal(&mut self.write_buf, delta, *value)?,
                 values => write_multi_bit_signal(&mut self.write_buf, delta, values)?,
             }
-            self.chain_bytes += self.write_buf.len();
             self.chains[index].extend_from_slice(&self.write_buf);
-        }
-        Ok(())
-    }
-
-    /// A change of a '0'/'1' bit vector given both as its ASCII (`ascii`, the signal's
-    /// length) and packed (`packed`: the same bits eight a byte, MSB first, the last byte
-    /// padded with zeros): the change [`Self::signal_change`] writes, without packing it.
-    pub(crate) fn signal_change_packed(
-        &mut self,
-        signal_id: FstSignalId,
-        ascii: &[u8],
-        packed: &[u8],
-    ) -> Result<()> {
-        let index = signal_id.to_array_index();
-        match self.signals.get(index) {
-            Some(s) if s.len as usize == ascii.len() && !s.real && s.len > 1 => {}
-            _ => return Err(FstWriteError::InvalidSignalId(signal_id)),
-        }
-        if packed.len() != ascii.len().div_ceil(8) || !is_digital(ascii) {
-            return Err(FstWriteError::NotPacked(signal_id));
-        }
-        if let Some(delta) = self.take_value(index, ascii) {
-            let chain = &mut self.chains[index];
-            let start = chain.len();
-            write_variant_u64(chain, delta << 1)?;
-            chain.extend_from_slice(packed);
-            self.chain_bytes += chain.len() - start;
         }
         Ok(())
     }
@@ -284,7 +242,7 @@ impl SignalBuffer {
     pub(crate) fn signal_change_u64(&mut self, signal_id: FstSignalId, value: u64) -> Result<()> {
         let index = signal_id.to_array_index();
         let (len, s) = match self.signals.get_mut(index) {
-            Some(s) if !s.real && (1..=64).contains(&s.len) => (s.len as usize, s),
+            Some(s) if (1..=64).contains(&s.len) => (s.len as usize, s),
             _ => return Err(FstWriteError::NotU64(signal_id)),
         };
         // the value's bits at the top (MSB first), the rest zero
@@ -341,7 +299,6 @@ impl SignalBuffer {
         let end = chain.len() + n;
         chain.extend_from_slice(&buf);
         chain.truncate(end);
-        self.chain_bytes += n;
         Ok(())
     }
 
@@ -389,29 +346,18 @@ impl SignalBuffer {
         }
         self.start_time = self.end_time;
         self.write_buf.clear();
-        self.chain_bytes = 0;
         self.first_buffer = false;
         section
-    }
-
-    /// The length of a signal's value (a valid id).
-    pub(crate) fn signal_len(&self, signal_id: FstSignalId) -> usize {
-        self.signals[signal_id.to_array_index()].len as usize
     }
 
     /// The time of the last time change.
     pub(crate) fn end_time(&self) -> u64 {
         self.end_time
     }
-
-    /// Returns the estimated size of all data structures that grow over time.
-    pub(crate) fn size(&self) -> usize {
-        self.time_table.len() + self.write_buf.len() + self.chain_bytes
-    }
 }
 
 /// `value` at the signal's length `len`: as it is, or with a VCD shortening expanded.
-pub(crate) fn full_length_value(value: &[u8], len: usize) -> Cow<'_, [u8]> {
+fn full_length_value(value: &[u8], len: usize) -> Cow<'_, [u8]> {
     if value.len() == len {
         Cow::Borrowed(value)
     } else {
@@ -561,7 +507,6 @@ mod tests {
         int.write_stale_values();
         assert_eq!(ascii.values, int.values);
         assert_eq!(ascii.chains, int.chains);
-        assert_eq!(ascii.chain_bytes, int.chain_bytes);
         assert_eq!(ascii.time_table, int.time_table);
     }
 
@@ -582,70 +527,7 @@ mod tests {
         ));
     }
 
-    /// A change given packed is encoded exactly as the same change in ASCII (widths 2..=160,
-    /// repeated values deduplicated alike).
-    fn do_test_packed_as_ascii(widths: &[u8], changes: &[(usize, u64, bool)]) {
-        let lens: Vec<u32> = widths.iter().map(|w| (*w % 159) as u32 + 2).collect();
-        let mut ascii = buffer_with_signals(&lens);
-        let mut packed = buffer_with_signals(&lens);
-        for (step, (signal, value, next_time)) in changes.iter().enumerate() {
-            if *next_time || step == 1 {
-                ascii.time_change(step as u64 + 1).unwrap();
-                packed.time_change(step as u64 + 1).unwrap();
-            }
-            let index = signal % lens.len();
-            let len = lens[index] as usize;
-            let id = FstSignalId::from_index(index as u32 + 1);
-            // few distinct values, so repeats happen
-            let v = value % 5;
-            let text: Vec<u8> = (0..len)
-                .map(|k| b'0' + ((v.rotate_left(k as u32 * 7) ^ k as u64) & 1) as u8)
-                .collect();
-            let bytes: Vec<u8> = text
-                .chunks(8)
-                .map(|c| {
-                    c.iter()
-                        .enumerate()
-                        .fold(0, |b, (k, &x)| b | (x - b'0') << (7 - k))
-                })
-                .collect();
-            ascii.signal_change(id, &text).unwrap();
-            packed.signal_change_packed(id, &text, &bytes).unwrap();
-        }
-        assert_eq!(ascii.values, packed.values);
-        assert_eq!(ascii.chains, packed.chains);
-        assert_eq!(ascii.chain_bytes, packed.chain_bytes);
-    }
-
-    /// A packed change needs its packed bytes to fit its '0'/'1' value.
-    #[test]
-    fn test_signal_change_packed_checks_its_value() {
-        let mut buffer = buffer_with_signals(&[16, 1]);
-        let id = FstSignalId::from_index(1);
-        buffer
-            .signal_change_packed(id, &[b'1'; 16], &[0xff, 0xff])
-            .unwrap();
-        for (ascii, packed) in [(&[b'1'; 16], &[0xffu8][..]), (&[b'x'; 16], &[0, 0][..])] {
-            assert!(matches!(
-                buffer.signal_change_packed(id, ascii, packed),
-                Err(FstWriteError::NotPacked(_))
-            ));
-        }
-        assert!(matches!(
-            buffer.signal_change_packed(FstSignalId::from_index(2), b"1", &[0x80]),
-            Err(FstWriteError::InvalidSignalId(_))
-        ));
-    }
-
     proptest! {
-        #[test]
-        fn test_packed_as_ascii(
-            widths in prop::collection::vec(any::<u8>(), 1..8),
-            changes in prop::collection::vec((any::<usize>(), any::<u64>(), any::<bool>()), 0..200),
-        ) {
-            do_test_packed_as_ascii(&widths, &changes);
-        }
-
         #[test]
         fn test_u64_as_ascii(
             widths in prop::collection::vec(any::<u8>(), 1..12),

@@ -4,8 +4,9 @@
 // released under BSD 3-Clause License
 // author: Kevin Laeufer <laeufer@cornell.edu>
 //
-// shellsim: zlib for value-change chains and frames (`FstCompression`, pack type 'Z'), a
-// `Section` taken out of the buffer whole (so a writer thread can write it), section
+// shellsim: zlib-format value-change chains and frames through libdeflate
+// (`FstCompression::Deflate`, pack type 'Z'), a `Section` taken out of the buffer whole (so
+// the compressor thread can write it), section
 // offsets counted rather than asked of the writer, `write_variant_u64` without allocation,
 // `write_multi_bit_signal` packing whole bytes. See README.md.
 
@@ -417,7 +418,7 @@ pub(crate) fn write_multi_bit_signal(
 }
 
 #[inline]
-pub(crate) fn is_digital(values: &[u8]) -> bool {
+fn is_digital(values: &[u8]) -> bool {
     // every byte '0' or '1' (0x30, 0x31): no early exit, so the loop is vectorized
     values.iter().fold(true, |ok, &v| ok & (v & !1 == b'0'))
 }
@@ -456,10 +457,8 @@ const VALUE_CHANGE_PACK_TYPE_ZLIB: u8 = b'Z';
 pub enum FstCompression {
     /// LZ4 chains, an uncompressed frame (the crate's original output).
     Lz4,
-    /// zlib chains and frame at this level (0-9; GTKWave's own writer uses 4).
-    Zlib(u8),
-    /// zlib chains and frame (pack type 'Z', as [`Zlib`](Self::Zlib)) made by libdeflate at
-    /// this level (1-12): whole-buffer compression, no stream state to reset per chain.
+    /// zlib-format chains and frame (pack type 'Z', as GTKWave's own writer writes them)
+    /// made by libdeflate at this level (1-12): whole-buffer compression.
     Deflate(u8),
 }
 
@@ -468,7 +467,7 @@ impl FstCompression {
     fn pack_type(self) -> u8 {
         match self {
             FstCompression::Lz4 => VALUE_CHANGE_PACK_TYPE_LZ4,
-            FstCompression::Zlib(_) | FstCompression::Deflate(_) => VALUE_CHANGE_PACK_TYPE_ZLIB,
+            FstCompression::Deflate(_) => VALUE_CHANGE_PACK_TYPE_ZLIB,
         }
     }
 }
@@ -502,14 +501,13 @@ impl Section {
     }
 }
 
-/// Scratch space for writing sections: the compressed bytes of one chain, and the zlib
-/// compressor's state (reset for every chain, allocated once).
+/// Scratch space for writing sections: the compressed bytes of one chain, and the
+/// libdeflate compressor (allocated once).
 pub(crate) struct SectionScratch {
     compressed: Vec<u8>,
     /// bytes of `compressed` in use
     compressed_len: usize,
     signal_offsets: Vec<u8>,
-    zlib: Option<(u8, flate2::Compress)>,
     deflate: Option<(u8, libdeflater::Compressor)>,
 }
 
@@ -519,22 +517,21 @@ impl SectionScratch {
             compressed: vec![],
             compressed_len: 0,
             signal_offsets: vec![],
-            zlib: None,
             deflate: None,
         }
     }
 
-    /// Compresses `data` at `c` (zlib or libdeflate) into `self.compressed`, when that makes
-    /// it smaller (returns false when not).
-    fn zlib_with(&mut self, data: &[u8], c: FstCompression) -> Result<bool> {
+    /// Compresses `data` at `c` (libdeflate; LZ4 gives false) into `self.compressed`, when
+    /// that makes it smaller (returns false when not).
+    fn zlib_with(&mut self, data: &[u8], c: FstCompression) -> bool {
         match c {
-            FstCompression::Zlib(level) => self.zlib(data, level),
-            FstCompression::Deflate(level) => Ok(self.deflate(data, level)),
-            FstCompression::Lz4 => Ok(false),
+            FstCompression::Deflate(level) => self.deflate(data, level),
+            FstCompression::Lz4 => false,
         }
     }
 
-    /// [`zlib`](Self::zlib) through libdeflate at `level`.
+    /// Compresses `data` in the zlib format through libdeflate at `level` into
+    /// `self.compressed`, when that makes it smaller (returns false when not).
     fn deflate(&mut self, data: &[u8], level: u8) -> bool {
         let z = match &mut self.deflate {
             Some((l, z)) if *l == level => z,
@@ -556,38 +553,6 @@ impl SectionScratch {
             _ => false,
         }
     }
-
-    /// Compresses `data` with zlib at `level` into `self.compressed`, when that makes it
-    /// smaller (returns false when not).
-    fn zlib(&mut self, data: &[u8], level: u8) -> Result<bool> {
-        let z = match &mut self.zlib {
-            Some((l, z)) if *l == level => {
-                z.reset();
-                z
-            }
-            slot => {
-                let z = flate2::Compress::new(flate2::Compression::new(level as u32), true);
-                &mut slot.insert((level, z)).1
-            }
-        };
-        // room for as many bytes as the input (zeroed only when it grows): a stream that
-        // does not end within it is no smaller
-        if self.compressed.len() < data.len() {
-            self.compressed.resize(data.len(), 0);
-        }
-        let status = z
-            .compress(
-                data,
-                &mut self.compressed[..data.len()],
-                flate2::FlushCompress::Finish,
-            )
-            .map_err(|e| std::io::Error::other(e.to_string()))?;
-        let n = z.total_out() as usize;
-        Ok(status == flate2::Status::StreamEnd && n < data.len() && {
-            self.compressed_len = n;
-            true
-        })
-    }
 }
 
 #[inline]
@@ -602,12 +567,8 @@ fn flush_zeros(output: &mut impl Write, zeros: &mut u32) -> Result<()> {
     Ok(())
 }
 
-/// For any signal change streams smaller than this size, we won't even attempt LZ4 compression
+/// For any signal change streams smaller than this size, we won't even attempt compression
 const MIN_SIZE_TO_ATTEMPT_COMPRESSION: usize = 32;
-
-/// The same for zlib, whose per-chain compressor reset costs ~250 k instructions (miniz_oxide):
-/// chains this short gain a few bytes at most.
-const MIN_SIZE_TO_ATTEMPT_ZLIB: usize = 256;
 
 fn write_value_changes(
     output: &mut (impl Write + Seek),
@@ -633,12 +594,7 @@ fn write_value_changes(
             *memory_required += data.len() as u64;
 
             // TODO: dedup with hashmap
-            let min = match section.compression {
-                FstCompression::Lz4 => MIN_SIZE_TO_ATTEMPT_COMPRESSION,
-                FstCompression::Zlib(_) => MIN_SIZE_TO_ATTEMPT_ZLIB,
-                FstCompression::Deflate(_) => MIN_SIZE_TO_ATTEMPT_COMPRESSION,
-            };
-            let compressed = if data.len() < min {
+            let compressed = if data.len() < MIN_SIZE_TO_ATTEMPT_COMPRESSION {
                 // it is better not to compress the data
                 None
             } else {
@@ -650,7 +606,7 @@ fn write_value_changes(
                         scratch.compressed_len = scratch.compressed.len();
                         scratch.compressed_len < data.len()
                     }
-                    c => scratch.zlib_with(data, c)?,
+                    c => scratch.zlib_with(data, c),
                 };
                 Some(&scratch.compressed[..scratch.compressed_len]).filter(|_| smaller)
             };
@@ -688,7 +644,7 @@ fn write_frame(
     let num_signals = section.chains.len();
     write_variant_u64(output, frame.len() as u64)?;
     // (LZ4 gives false: it keeps the frame uncompressed)
-    if scratch.zlib_with(frame, section.compression)? {
+    if scratch.zlib_with(frame, section.compression) {
         let c = &scratch.compressed[..scratch.compressed_len];
         write_variant_u64(output, c.len() as u64)?;
         write_variant_u64(output, num_signals as u64)?;

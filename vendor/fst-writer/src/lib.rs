@@ -3,7 +3,7 @@
 // released under BSD 3-Clause License
 // author: Kevin Laeufer <laeufer@cornell.edu>
 //
-// shellsim: errors `NotU64`, `NotPacked` and `WriterThread`, and `FstCompression` exported. See README.md.
+// shellsim: errors `NotU64` and `CompressorThread`, and `FstCompression` exported. See README.md.
 
 mod buffer;
 mod io;
@@ -26,12 +26,10 @@ pub enum FstWriteError {
     InvalidCharacter(char),
     #[error("Signal {0:?} is not a bit vector of at most 64 bits")]
     NotU64(FstSignalId),
-    #[error("Signal {0:?}: the packed value is not its ASCII '0'/'1' value's")]
-    NotPacked(FstSignalId),
-    #[error("The section writer thread stopped")]
-    WriterThread,
+    #[error("The section compressor thread stopped")]
+    CompressorThread,
 }
 
 pub use io::FstCompression;
 pub use types::*;
-pub use writer::{FstBodyWriter, FstHeaderWriter, open_fst};
+pub use writer::{FstBodyWriter, FstHeaderWriter};

@@ -58,46 +58,26 @@ impl FstEnumHandle {
     }
 }
 
+/// A signal's type: a bit vector of some length. shellsim: reals (`FstSignalType::real`)
+/// removed (unused).
 #[derive(Debug, Copy, Clone, PartialEq)]
-pub struct FstSignalType(SignalType);
-
-#[derive(Debug, Copy, Clone, PartialEq)]
-enum SignalType {
-    BitVec(NonZeroU32),
-    Real,
-}
+pub struct FstSignalType(NonZeroU32);
 
 impl FstSignalType {
     pub fn bit_vec(len: u32) -> Self {
-        Self(SignalType::BitVec(NonZeroU32::new(len + 1).unwrap()))
-    }
-
-    pub fn real() -> Self {
-        Self(SignalType::Real)
+        Self(NonZeroU32::new(len + 1).unwrap())
     }
 
     pub(crate) fn to_file_format(self) -> u32 {
-        match self.0 {
-            SignalType::BitVec(value) => match value.get() {
-                1 => u32::MAX,
-                other => other - 1,
-            },
-            SignalType::Real => 0,
+        match self.0.get() {
+            1 => u32::MAX,
+            other => other - 1,
         }
-    }
-
-    /// True if this is a signal of type [`SignalType::Real`].
-    #[inline]
-    pub(crate) fn is_real(&self) -> bool {
-        matches!(self.0, SignalType::Real)
     }
 
     #[inline]
     pub(crate) fn len(&self) -> u32 {
-        match self.0 {
-            SignalType::BitVec(value) => value.get() - 1,
-            SignalType::Real => 8,
-        }
+        self.0.get() - 1
     }
 }
 
