@@ -1080,7 +1080,7 @@ fn an_lz4_fst_holds_exactly_the_vcds_value_changes() {
     );
 }
 
-/// The FST (compressed on a writer thread) is byte-identical between two identical runs.
+/// The FST (compressed on the compressor thread) is byte-identical between two identical runs.
 #[test]
 fn two_runs_give_byte_identical_fsts() {
     let dir = tempfile::tempdir().unwrap();
