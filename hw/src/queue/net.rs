@@ -106,6 +106,16 @@ impl NetParams {
     }
 }
 
+/// With `job_source = "ctu"`, the jobs of a batch waiting in its ray buffer at `now`: of its
+/// `jobs` left (`cut` were split off) and `unserved` not yet taken by the ICU, those its
+/// issuer has handed over (one per cycle from `start`, in order) — split-off jobs had been
+/// handed over, not the issuer's — at most the buffer's `capacity`.
+fn ctu_waiting(jobs: u64, cut: u64, start: u64, now: u64, unserved: u64, capacity: u64) -> u64 {
+    let orig = jobs + cut;
+    let unissued = orig - orig.min((now + 1).saturating_sub(start));
+    unserved.min(jobs).saturating_sub(unissued).min(capacity)
+}
+
 /// Records a patch buffer's link to one CTU holds.
 const INBOX: usize = 2;
 
@@ -158,6 +168,8 @@ struct Batch {
     reserved: bool,
     version: u32,
     done: bool,
+    /// Jobs split off it so far (off the back of what its issuer had handed over).
+    cut: u64,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -642,6 +654,7 @@ impl Net<'_> {
             reserved: false,
             version: 0,
             done: false,
+            cut: 0,
         });
         let back = self.enqueue(k, n, Some((id, t)));
         self.batches[id].back_at = back;
@@ -809,11 +822,17 @@ impl Net<'_> {
         let mut queued = batch.jobs.min(cl.backlog);
         if !self.p.bundle && batch.ret == 0 {
             // The ray buffer holds only what the issuer has handed over and the ICU has not
-            // taken, at most its capacity.
-            let issued = batch.jobs.min((now + 1).saturating_sub(batch.start));
-            queued = queued
-                .saturating_sub(batch.jobs - issued)
-                .min(self.p.ray_buffer_capacity);
+            // taken, at most its capacity. The issuer hands the batch over in order, one job
+            // per cycle from its start; earlier splits took handed-over jobs, not the
+            // issuer's.
+            queued = ctu_waiting(
+                batch.jobs,
+                batch.cut,
+                batch.start,
+                now,
+                queued,
+                self.p.ray_buffer_capacity,
+            );
         }
         let w = self
             .p
@@ -825,6 +844,7 @@ impl Net<'_> {
         // The batch loses its last w jobs here: its own part is back w cycles sooner.
         let bt = &mut self.batches[b];
         bt.jobs -= w;
+        bt.cut += w;
         bt.version += 1;
         bt.back_at -= w;
         let old_home = bt.home;
@@ -954,13 +974,27 @@ mod tests {
             // A job source's ICU share follows what the link brings: a work-item of jobs
             // crosses it 2 words a job, a descriptor's ray ids 1 word a job. A batch cut to
             // nothing keeps no stale time that holds its join (it did once: +50 %).
-            let (lo, hi) = if bundle { (0.5, 0.6) } else { (0.7, 0.85) };
+            let (lo, hi) = if bundle { (0.5, 0.6) } else { (0.84, 0.9) };
             let ratio = on.cycles as f64 / off.cycles as f64;
             assert!(
                 (lo..hi).contains(&ratio),
                 "bundle {bundle}: {ratio} ({on:?})"
             );
         }
+    }
+
+    #[test]
+    fn a_split_counts_only_handed_over_jobs_that_no_split_took() {
+        // A batch of 100 jobs handed over one a cycle from cycle 0; at cycle 49, 50 are
+        // handed over and, with 80 of its jobs not yet computed, 30 wait in the buffer.
+        assert_eq!(ctu_waiting(100, 0, 0, 49, 80, 256), 30);
+        // 20 of them split off: 10 wait, and a cycle later 11 (one more handed over).
+        assert_eq!(ctu_waiting(80, 20, 0, 49, 60, 256), 10);
+        assert_eq!(ctu_waiting(80, 20, 0, 50, 59, 256), 10);
+        assert_eq!(ctu_waiting(80, 20, 0, 50, 60, 256), 11);
+        // Never more than the buffer holds, nothing before the batch starts.
+        assert_eq!(ctu_waiting(100, 0, 0, 49, 80, 16), 16);
+        assert_eq!(ctu_waiting(100, 0, 60, 49, 100, 256), 0);
     }
 
     #[test]
