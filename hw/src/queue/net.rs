@@ -106,14 +106,12 @@ impl NetParams {
     }
 }
 
-/// With `job_source = "ctu"`, the jobs of a batch waiting in its ray buffer at `now`: of its
-/// `jobs` left (`cut` were split off) and `unserved` not yet taken by the ICU, those its
-/// issuer has handed over (one per cycle from `start`, in order) — split-off jobs had been
-/// handed over, not the issuer's — at most the buffer's `capacity`.
-fn ctu_waiting(jobs: u64, cut: u64, start: u64, now: u64, unserved: u64, capacity: u64) -> u64 {
+/// With `job_source = "ctu"`, the jobs of a batch its issuer has handed over by `now` (in
+/// order, at most one per cycle, the last the cycle before `issue_end`) that no split took:
+/// of its `jobs` left, `cut` were split off, and those had been handed over.
+fn ctu_handed_over(jobs: u64, cut: u64, issue_end: u64, now: u64) -> u64 {
     let orig = jobs + cut;
-    let unissued = orig - orig.min((now + 1).saturating_sub(start));
-    unserved.min(jobs).saturating_sub(unissued).min(capacity)
+    (orig - orig.min(issue_end.saturating_sub(now + 1))).saturating_sub(cut)
 }
 
 /// Records a patch buffer's link to one CTU holds.
@@ -155,9 +153,6 @@ struct Batch {
     sub: usize,
     /// Jobs left to the owner's ICU.
     jobs: u64,
-    /// The cycle it entered the queue (a CTU's issuer hands it over one job per cycle from
-    /// then on).
-    start: u64,
     back_at: u64,
     /// Cycles from the ICU back to the owner (0, or the link for a moved work-item).
     ret: u64,
@@ -170,6 +165,9 @@ struct Batch {
     done: bool,
     /// Jobs split off it so far (off the back of what its issuer had handed over).
     cut: u64,
+    /// With `job_source = "ctu"`: the cycle after its issuer hands over its last job (one
+    /// per cycle from `start`, later when the ray buffer is full).
+    issue_end: u64,
 }
 
 #[derive(Clone, Debug, Default)]
@@ -614,10 +612,20 @@ impl Net<'_> {
             }
             if !self.p.bundle {
                 r.issuing = true;
-                self.at(now + 1 + n as u64, Ev::Issued(c));
+                let mut end = now + 1 + n as u64;
                 if n > 0 {
-                    self.submit_own(c, s, n, now + 1);
+                    let id = self.submit_own(c, s, n, now + 1);
+                    // The ray buffer holds at most its capacity: the issuer hands a job over
+                    // only when there is room, so the last one no sooner than `capacity`
+                    // cycles before the ICU takes it.
+                    let b = &mut self.batches[id];
+                    end = end.max(
+                        b.back_at
+                            .saturating_sub(self.p.depth + self.p.ray_buffer_capacity),
+                    );
+                    b.issue_end = end;
                 }
+                self.at(end, Ev::Issued(c));
                 break;
             }
             if n > 0 {
@@ -632,22 +640,21 @@ impl Net<'_> {
     }
 
     /// A batch of `n` jobs of (CTU `c`, subshell `s`) enters its cluster's queue at `t`.
-    fn submit_own(&mut self, c: usize, s: usize, n: u32, t: u64) {
+    fn submit_own(&mut self, c: usize, s: usize, n: u32, t: u64) -> usize {
         let k = self.ctus[c].cluster;
-        self.submit(k, c, s, n as u64, t, 0);
+        self.submit(k, c, s, n as u64, t, 0)
     }
 
     /// A batch of `n` jobs of (CTU `c`, subshell `s`) enters cluster `k`'s queue at `t`; its
     /// results reach the CTU `ret` cycles after they leave the ICU (the link home for a moved
     /// work-item).
-    fn submit(&mut self, k: usize, c: usize, s: usize, n: u64, t: u64, ret: u64) {
+    fn submit(&mut self, k: usize, c: usize, s: usize, n: u64, t: u64, ret: u64) -> usize {
         let id = self.batches.len();
         self.batches.push(Batch {
             cluster: k,
             ctu: c,
             sub: s,
             jobs: n,
-            start: t,
             back_at: 0,
             ret,
             home: 0,
@@ -655,12 +662,14 @@ impl Net<'_> {
             version: 0,
             done: false,
             cut: 0,
+            issue_end: t + n,
         });
         let back = self.enqueue(k, n, Some((id, t)));
         self.batches[id].back_at = back;
         self.batches[id].home = back;
         self.schedule_return(id);
         self.check_starve(k);
+        id
     }
 
     /// Schedules batch `id`'s return at its current version: its Back when its last result
@@ -815,29 +824,50 @@ impl Net<'_> {
                 break;
             }
         }
-        let Some(&b) = cl.queue.back() else {
+        let Some(&last) = cl.queue.back() else {
             return self.split_failed(thief);
         };
+        let (b, w) = if self.p.bundle {
+            let queued = self.batches[last].jobs.min(cl.backlog);
+            let keep = u64::from(cl.backlog == queued);
+            (last, self.p.work_item_jobs.min(queued.saturating_sub(keep)))
+        } else {
+            // The ray buffer holds what the issuers have handed over and the ICU has not
+            // taken, at most its capacity; a split takes the back of it — the latest
+            // handed-over jobs, of the last batch that has any — and leaves one job.
+            let unissued = |x: &Batch| {
+                if x.ret == 0 {
+                    (x.jobs + x.cut).min(x.issue_end.saturating_sub(now + 1))
+                } else {
+                    0
+                }
+            };
+            let held: u64 = cl.queue.iter().map(|&x| unissued(&self.batches[x])).sum();
+            let waiting = cl
+                .backlog
+                .saturating_sub(held)
+                .min(self.p.ray_buffer_capacity);
+            let pick = cl.queue.iter().rev().find_map(|&x| {
+                let bt = &self.batches[x];
+                let given = if bt.ret == 0 {
+                    ctu_handed_over(bt.jobs, bt.cut, bt.issue_end, now)
+                } else {
+                    bt.jobs
+                };
+                (!bt.done && given > 0).then_some((x, given.min(bt.jobs)))
+            });
+            match pick {
+                Some((x, given)) => (
+                    x,
+                    self.p
+                        .work_item_jobs
+                        .min(given)
+                        .min(waiting.saturating_sub(1)),
+                ),
+                None => (last, 0),
+            }
+        };
         let batch = self.batches[b];
-        let mut queued = batch.jobs.min(cl.backlog);
-        if !self.p.bundle && batch.ret == 0 {
-            // The ray buffer holds only what the issuer has handed over and the ICU has not
-            // taken, at most its capacity. The issuer hands the batch over in order, one job
-            // per cycle from its start; earlier splits took handed-over jobs, not the
-            // issuer's.
-            queued = ctu_waiting(
-                batch.jobs,
-                batch.cut,
-                batch.start,
-                now,
-                queued,
-                self.p.ray_buffer_capacity,
-            );
-        }
-        let w = self
-            .p
-            .work_item_jobs
-            .min(queued.saturating_sub(if cl.backlog == queued { 1 } else { 0 }));
         if w == 0 {
             return self.split_failed(thief);
         }
@@ -973,8 +1003,10 @@ mod tests {
             assert!(on.work_items > 0, "{on:?}");
             // A job source's ICU share follows what the link brings: a work-item of jobs
             // crosses it 2 words a job, a descriptor's ray ids 1 word a job. A batch cut to
-            // nothing keeps no stale time that holds its join (it did once: +50 %).
-            let (lo, hi) = if bundle { (0.5, 0.6) } else { (0.84, 0.9) };
+            // nothing keeps no stale time that holds its join (it did once: +50 %). With
+            // `ctu` the two issuers wait for room in the ray buffer, so a thief finds only
+            // its capacity's worth waiting there, not the whole batch.
+            let (lo, hi) = if bundle { (0.5, 0.6) } else { (0.85, 0.95) };
             let ratio = on.cycles as f64 / off.cycles as f64;
             assert!(
                 (lo..hi).contains(&ratio),
@@ -985,16 +1017,17 @@ mod tests {
 
     #[test]
     fn a_split_counts_only_handed_over_jobs_that_no_split_took() {
-        // A batch of 100 jobs handed over one a cycle from cycle 0; at cycle 49, 50 are
-        // handed over and, with 80 of its jobs not yet computed, 30 wait in the buffer.
-        assert_eq!(ctu_waiting(100, 0, 0, 49, 80, 256), 30);
-        // 20 of them split off: 10 wait, and a cycle later 11 (one more handed over).
-        assert_eq!(ctu_waiting(80, 20, 0, 49, 60, 256), 10);
-        assert_eq!(ctu_waiting(80, 20, 0, 50, 59, 256), 10);
-        assert_eq!(ctu_waiting(80, 20, 0, 50, 60, 256), 11);
-        // Never more than the buffer holds, nothing before the batch starts.
-        assert_eq!(ctu_waiting(100, 0, 0, 49, 80, 16), 16);
-        assert_eq!(ctu_waiting(100, 0, 60, 49, 100, 256), 0);
+        // A batch of 100 jobs handed over one a cycle from cycle 0 (the last at 99): 50 by
+        // cycle 49.
+        assert_eq!(ctu_handed_over(100, 0, 100, 49), 50);
+        // 20 of them split off: 30 left, and a cycle later 31.
+        assert_eq!(ctu_handed_over(80, 20, 100, 49), 30);
+        assert_eq!(ctu_handed_over(80, 20, 100, 50), 31);
+        // Nothing before the batch starts; all once its issue ends.
+        assert_eq!(ctu_handed_over(100, 0, 160, 49), 0);
+        assert_eq!(ctu_handed_over(80, 20, 100, 120), 80);
+        // A full buffer slows the issuer: handed over until cycle 299, 60 by cycle 259.
+        assert_eq!(ctu_handed_over(100, 0, 300, 259), 60);
     }
 
     #[test]
