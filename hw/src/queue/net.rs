@@ -106,12 +106,14 @@ impl NetParams {
     }
 }
 
-/// With `job_source = "ctu"`, the jobs of a batch its issuer has handed over by `now` (in
-/// order, at most one per cycle, the last the cycle before `issue_end`) that no split took:
-/// of its `jobs` left, `cut` were split off, and those had been handed over.
-fn ctu_handed_over(jobs: u64, cut: u64, issue_end: u64, now: u64) -> u64 {
-    let orig = jobs + cut;
-    (orig - orig.min(issue_end.saturating_sub(now + 1))).saturating_sub(cut)
+/// With `job_source = "ctu"`, the jobs of a batch of `orig` its issuer has handed over by the
+/// end of cycle `now`: evenly from `start` to the cycle before `issue_end` — one per cycle,
+/// or at the ICU's pace while the ray buffer is full (split-off jobs count: they had been
+/// handed over).
+fn ctu_issued(orig: u64, start: u64, issue_end: u64, now: u64) -> u64 {
+    let span = issue_end.saturating_sub(start).max(1);
+    let elapsed = (now + 1).saturating_sub(start).min(span);
+    (u128::from(orig) * u128::from(elapsed) / u128::from(span)) as u64
 }
 
 /// Records a patch buffer's link to one CTU holds.
@@ -153,6 +155,8 @@ struct Batch {
     sub: usize,
     /// Jobs left to the owner's ICU.
     jobs: u64,
+    /// The cycle it entered the queue (its issuer's first job, with `job_source = "ctu"`).
+    start: u64,
     back_at: u64,
     /// Cycles from the ICU back to the owner (0, or the link for a moved work-item).
     ret: u64,
@@ -166,7 +170,7 @@ struct Batch {
     /// Jobs split off it so far (off the back of what its issuer had handed over).
     cut: u64,
     /// With `job_source = "ctu"`: the cycle after its issuer hands over its last job (one
-    /// per cycle from `start`, later when the ray buffer is full).
+    /// per cycle from `start`, at the ICU's pace when the ray buffer is full).
     issue_end: u64,
 }
 
@@ -655,6 +659,7 @@ impl Net<'_> {
             ctu: c,
             sub: s,
             jobs: n,
+            start: t,
             back_at: 0,
             ret,
             home: 0,
@@ -827,17 +832,23 @@ impl Net<'_> {
         let Some(&last) = cl.queue.back() else {
             return self.split_failed(thief);
         };
-        let (b, w) = if self.p.bundle {
+        // The work-item: (batch, jobs) parts, from the back of the queue.
+        let mut parts: Vec<(usize, u64)> = Vec::new();
+        if self.p.bundle {
             let queued = self.batches[last].jobs.min(cl.backlog);
             let keep = u64::from(cl.backlog == queued);
-            (last, self.p.work_item_jobs.min(queued.saturating_sub(keep)))
+            let w = self.p.work_item_jobs.min(queued.saturating_sub(keep));
+            if w > 0 {
+                parts.push((last, w));
+            }
         } else {
             // The ray buffer holds what the issuers have handed over and the ICU has not
             // taken, at most its capacity; a split takes the back of it — the latest
-            // handed-over jobs, of the last batch that has any — and leaves one job.
+            // handed-over jobs, batch by batch from the last — and leaves one job.
             let unissued = |x: &Batch| {
                 if x.ret == 0 {
-                    (x.jobs + x.cut).min(x.issue_end.saturating_sub(now + 1))
+                    let orig = x.jobs + x.cut;
+                    orig - ctu_issued(orig, x.start, x.issue_end, now)
                 } else {
                     0
                 }
@@ -847,63 +858,69 @@ impl Net<'_> {
                 .backlog
                 .saturating_sub(held)
                 .min(self.p.ray_buffer_capacity);
-            let pick = cl.queue.iter().rev().find_map(|&x| {
+            let mut want = self.p.work_item_jobs.min(waiting.saturating_sub(1));
+            for &x in cl.queue.iter().rev() {
+                if want == 0 {
+                    break;
+                }
                 let bt = &self.batches[x];
+                if bt.done || bt.jobs == 0 {
+                    continue;
+                }
                 let given = if bt.ret == 0 {
-                    ctu_handed_over(bt.jobs, bt.cut, bt.issue_end, now)
+                    ctu_issued(bt.jobs + bt.cut, bt.start, bt.issue_end, now)
+                        .saturating_sub(bt.cut)
+                        .min(bt.jobs)
                 } else {
                     bt.jobs
                 };
-                (!bt.done && given > 0).then_some((x, given.min(bt.jobs)))
-            });
-            match pick {
-                Some((x, given)) => (
-                    x,
-                    self.p
-                        .work_item_jobs
-                        .min(given)
-                        .min(waiting.saturating_sub(1)),
-                ),
-                None => (last, 0),
+                let take = given.min(want);
+                if take > 0 {
+                    parts.push((x, take));
+                    want -= take;
+                }
             }
-        };
-        let batch = self.batches[b];
-        if w == 0 {
+        }
+        if parts.is_empty() {
             return self.split_failed(thief);
         }
-        // The batch loses its last w jobs here: its own part is back w cycles sooner.
-        let bt = &mut self.batches[b];
-        bt.jobs -= w;
-        bt.cut += w;
-        bt.version += 1;
-        bt.back_at -= w;
-        let old_home = bt.home;
-        bt.home = if bt.ret == 0 {
-            bt.back_at
-        } else if bt.reserved {
-            (bt.back_at + bt.ret).max(bt.home - w)
-        } else {
-            bt.back_at
-        };
-        let home = bt.home;
-        let oc = self.ctus[batch.ctu].cluster;
-        if batch.reserved && self.home_free[oc] == old_home {
-            self.home_free[oc] = home;
-        }
-        self.schedule_return(b);
-        self.clusters[v].backlog -= w;
-        self.out.icu_jobs[v] -= w;
-        self.ctus[batch.ctu].open[batch.sub] += 1;
+        let total: u64 = parts.iter().map(|p| p.1).sum();
         let words = if self.p.bundle {
-            DESCRIPTOR_WORDS as u64 + w * RAY_ID_WORDS as u64
+            DESCRIPTOR_WORDS as u64 + total * RAY_ID_WORDS as u64
         } else {
-            w * JOB_WORDS as u64
+            total * JOB_WORDS as u64
         };
-        self.clusters[thief].inbound += 1;
-        self.out.work_items += 1;
-        self.out.jobs_moved += w;
         let t = now + 1 + self.p.link_cycles(words);
-        self.at(t, Ev::Inbound(thief, batch.ctu, batch.sub, w));
+        self.out.work_items += 1;
+        self.out.jobs_moved += total;
+        for (b, w) in parts {
+            let batch = self.batches[b];
+            // The batch loses its last w jobs here: its own part is back w cycles sooner.
+            let bt = &mut self.batches[b];
+            bt.jobs -= w;
+            bt.cut += w;
+            bt.version += 1;
+            bt.back_at -= w;
+            let old_home = bt.home;
+            bt.home = if bt.ret == 0 {
+                bt.back_at
+            } else if bt.reserved {
+                (bt.back_at + bt.ret).max(bt.home - w)
+            } else {
+                bt.back_at
+            };
+            let home = bt.home;
+            let oc = self.ctus[batch.ctu].cluster;
+            if batch.reserved && self.home_free[oc] == old_home {
+                self.home_free[oc] = home;
+            }
+            self.schedule_return(b);
+            self.clusters[v].backlog -= w;
+            self.out.icu_jobs[v] -= w;
+            self.ctus[batch.ctu].open[batch.sub] += 1;
+            self.clusters[thief].inbound += 1;
+            self.at(t, Ev::Inbound(thief, batch.ctu, batch.sub, w));
+        }
         self.check_starve(v);
     }
 }
@@ -1016,18 +1033,15 @@ mod tests {
     }
 
     #[test]
-    fn a_split_counts_only_handed_over_jobs_that_no_split_took() {
-        // A batch of 100 jobs handed over one a cycle from cycle 0 (the last at 99): 50 by
-        // cycle 49.
-        assert_eq!(ctu_handed_over(100, 0, 100, 49), 50);
-        // 20 of them split off: 30 left, and a cycle later 31.
-        assert_eq!(ctu_handed_over(80, 20, 100, 49), 30);
-        assert_eq!(ctu_handed_over(80, 20, 100, 50), 31);
-        // Nothing before the batch starts; all once its issue ends.
-        assert_eq!(ctu_handed_over(100, 0, 160, 49), 0);
-        assert_eq!(ctu_handed_over(80, 20, 100, 120), 80);
-        // A full buffer slows the issuer: handed over until cycle 299, 60 by cycle 259.
-        assert_eq!(ctu_handed_over(100, 0, 300, 259), 60);
+    fn an_issuer_hands_over_one_job_a_cycle_or_at_the_icus_pace() {
+        // 100 jobs from cycle 0, one a cycle (the last at 99): 50 by the end of cycle 49.
+        assert_eq!(ctu_issued(100, 0, 100, 49), 50);
+        assert_eq!(ctu_issued(100, 0, 100, 99), 100);
+        assert_eq!(ctu_issued(100, 0, 100, 500), 100);
+        // Nothing before it starts.
+        assert_eq!(ctu_issued(100, 60, 160, 49), 0);
+        // A full buffer: the same 100 jobs over 400 cycles, one every 4.
+        assert_eq!(ctu_issued(100, 0, 400, 199), 50);
     }
 
     #[test]
