@@ -14,7 +14,7 @@
 //! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
 //! own state, not links of this table; `Cluster::commit` clocks them.
 
-use super::sink::{Sink, LINK_SIGNALS};
+use super::sink::Sink;
 use crate::config::MachineTable;
 use crate::link::{Link, TouchWord, UnitId};
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};
@@ -286,14 +286,11 @@ fn commit_family<T: Clone>(family: &mut [Link<T>], words: &[TouchWord]) {
 
 /// Reports a link's registered valid, ready, occupancy and transfer count (a filler skips
 /// them when no edge touched the link since the last sample).
+#[inline(always)]
 pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>) {
-    if p.skip_unchanged(l.take_changed(), LINK_SIGNALS) {
-        return;
+    if !p.skip_unchanged(l.take_changed(), Link::<T>::SIGNALS) {
+        l.signals(p, scope);
     }
-    p.bits(scope, "valid", 1, l.valid() as u64);
-    p.bits(scope, "ready", 1, l.ready() as u64);
-    p.bits(scope, "occupancy", 16, l.len() as u64);
-    p.bits(scope, "transfers", 32, l.transfers);
 }
 
 #[cfg(test)]

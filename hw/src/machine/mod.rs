@@ -14,7 +14,7 @@
 mod jump;
 pub mod links;
 mod probe;
-mod sink;
+pub(crate) mod sink;
 mod tick;
 mod watchdog;
 

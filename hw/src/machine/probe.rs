@@ -18,7 +18,8 @@ use super::links::{probe_link, Section};
 use super::sink::{Shift, Sink, Stages};
 use super::Machine;
 use crate::trace::{Probe, SignalDecl, SignalKind, StageShift};
-use crate::units::ctu::CtuState;
+use crate::units::ctu::Ctu;
+use crate::units::icu::Icu;
 
 /// The low `width` bits.
 fn mask(width: u32) -> u64 {
@@ -412,65 +413,32 @@ impl Machine<'_> {
         }
     }
 
-    /// [`Machine::walk`], testing which units are shown when `FILTERED`.
+    /// [`Machine::walk`], testing which units are shown when `FILTERED`. Each unit reports
+    /// its own signals (`signals` and the like in its file); this walk orders them, skips
+    /// what cannot have changed, and puts the links between them.
     #[inline(always)]
     fn walk_shown<S: Sink, const FILTERED: bool>(&self, sc: &Scopes, p: &mut S) {
         let now = self.cycle;
-        let t_frac = self.scene.formats.t.frac_bits;
-        let t_bits = self.scene.formats.t.bits();
+        let t = (self.scene.formats.t.bits(), self.scene.formats.t.frac_bits);
         let bundle = self.cfg.machine.job_source == crate::config::JobSource::Bundle;
+        let balance = self.cfg.balance.enabled;
         if !FILTERED || sc.shown.memory {
-            p.bits(
-                &sc.memory,
-                "port_busy",
-                1,
-                self.memory.port_busy(now) as u64,
-            );
-            p.bits(&sc.memory, "in_flight", 16, self.memory.inflight() as u64);
-            p.bits(&sc.memory, "grants", 32, self.memory.stats.grants);
+            self.memory.signals(p, &sc.memory, now);
         }
         if !FILTERED || sc.shown.arbiter {
-            p.bits(
-                &sc.arbiter,
-                "last_grant",
-                16,
-                self.memory.last_grant.min(0xFFFF) as u64,
-            );
+            self.memory.arbiter_signals(p, &sc.arbiter);
         }
         self.links.probe::<S, FILTERED>(p, Section::Arbiter);
-        if self.cfg.balance.enabled && (!FILTERED || sc.shown.balancer) {
-            p.bits(
-                &sc.balancer,
-                "split_orders",
-                32,
-                self.balancer.stats.split_orders,
-            );
-            p.bits(
-                &sc.balancer,
-                "jobs_moved",
-                32,
-                self.balancer.stats.jobs_moved,
-            );
-            p.bits(&sc.balancer, "retries", 32, self.balancer.stats.retries);
+        if balance && (!FILTERED || sc.shown.balancer) {
+            self.balancer.signals(p, &sc.balancer);
         }
         // The scopes are looked up without an index (a filler uses none of them, and then
         // nothing is left of the lookups); `Scopes::new` made one per unit.
         for (c, (cl, cs)) in self.clusters.iter().zip(&sc.clusters).enumerate() {
-            if self.cfg.balance.enabled && (!FILTERED || cs.shown.balance) {
-                p.bits(
-                    &cs.balance,
-                    "work_request",
-                    1,
-                    self.balancer.requesting(c) as u64,
-                );
-                p.bits(
-                    &cs.balance,
-                    "jobs_inbound",
-                    16,
-                    self.balancer.inbound(c) as u64,
-                );
+            if balance && (!FILTERED || cs.shown.balance) {
+                self.balancer.cluster_signals(p, &cs.balance, c);
             }
-            if self.cfg.balance.enabled {
+            if balance {
                 self.links.probe::<S, FILTERED>(p, Section::Balance(c));
             }
             if !FILTERED || cs.shown.patch_buffer {
@@ -480,26 +448,9 @@ impl Machine<'_> {
                 probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
             }
             if bundle && (!FILTERED || cs.shown.ray_buffer) {
-                let rb = &cl.ray_buffer;
-                let (patch, left) = rb.expanding().unwrap_or((0, 0));
-                p.bits(&cs.ray_buffer, "descriptors", 16, rb.descriptors() as u64);
-                p.bits(&cs.ray_buffer, "jobs_waiting", 32, rb.waiting() as u64);
-                p.bits(&cs.ray_buffer, "expanding_patch", 24, patch as u64);
-                p.bits(&cs.ray_buffer, "expanding_left", 32, left as u64);
-                p.bits(
-                    &cs.ray_buffer,
-                    "descriptors_in",
-                    32,
-                    rb.stats.descriptors_in,
-                );
-                p.bits(&cs.ray_buffer, "splits", 32, rb.stats.work_items_given);
-                if self.cfg.balance.enabled {
-                    p.bits(
-                        &cs.ray_buffer,
-                        "descriptors_inbound",
-                        16,
-                        self.balancer.inbound_descriptors(c) as u64,
-                    );
+                cl.ray_buffer.bundle_signals(p, &cs.ray_buffer);
+                if balance {
+                    self.balancer.ray_buffer_signals(p, &cs.ray_buffer, c);
                 }
             }
             if bundle {
@@ -507,80 +458,56 @@ impl Machine<'_> {
                     .probe::<S, FILTERED>(p, Section::BundleCluster(c));
             }
             for (j, (ctu, s)) in cl.ctus.iter().zip(&cs.ctus).enumerate() {
-                // A finished CTU never ticks again: its six signals are final; nor do they
+                // A finished CTU never ticks again: its signals are final; nor do they
                 // change in a cycle it did not tick actively.
                 let u = self.clusters.len() + c * cl.ctus.len() + j;
                 let ticked = ctu.take_ticked();
                 let shown = !FILTERED || cs.shown.ctus.get(j).copied().unwrap_or(true);
-                if shown && !p.skip_quiet(u, ctu.is_finished(), 6) && !p.skip_unchanged(ticked, 6) {
-                    p.text(s, "state", CtuState::NAMES, ctu.state.index());
-                    p.bits(s, "shell", 16, ctu.shell() as u64);
-                    p.bits(s, "remaining_rays", 32, ctu.remaining() as u64);
-                    p.bits(s, "outstanding_jobs", 32, ctu.outstanding());
-                    p.bits(s, "pending_loads", 16, ctu.pending_loads() as u64);
-                    p.bits(s, "jobs_issued", 32, ctu.stats.jobs_issued);
+                if shown
+                    && !p.skip_quiet(u, ctu.is_finished(), Ctu::SIGNALS)
+                    && !p.skip_unchanged(ticked, Ctu::SIGNALS)
+                {
+                    ctu.signals(p, s);
                 }
                 self.links.probe::<S, FILTERED>(p, Section::Ctu(c, j));
                 if bundle {
                     if shown {
-                        p.bits(s, "descriptors", 32, ctu.stats.descriptors);
+                        ctu.bundle_signals(p, s);
                     }
                     self.links.probe::<S, FILTERED>(p, Section::BundleCtu(c, j));
                 }
             }
             if !FILTERED || cs.shown.icu {
-                p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
+                cl.icu.signals(p, &cs.icu);
             }
             if FILTERED && !cs.shown.stages {
                 continue;
             }
-            // Four signals a stage (the count `skip_quiet` is told), all zero when empty; the
-            // first three (valid, ray, patch) move on a stage as the pipeline advances.
+            // Every stage's signals, all zero when empty; the first few move on a stage as
+            // the pipeline advances.
             let depth = cl.icu.depth();
             let stages = Stages {
                 cluster: c,
                 position: cl.icu.ring_position(),
-                stride: 4,
-                width: 3,
-                signals: 4 * depth,
+                stride: Icu::STAGE_SIGNALS,
+                width: Icu::STAGE_MOVING,
+                signals: Icu::STAGE_SIGNALS * depth,
             };
-            if p.skip_quiet(c, cl.icu.is_empty(), 4 * depth) {
+            if p.skip_quiet(c, cl.icu.is_empty(), stages.signals) {
                 // Empty now and at the last sample: all zero still.
             } else if let shift @ (Shift::Held | Shift::Moved) = p.shift_stages(stages) {
                 if shift == Shift::Moved {
                     // Stage 0's new job, the later stages moved, the result stage's t.
                     let stage = |k: usize| cs.stages.get(k).map_or("", String::as_str);
-                    let (first, last) = (stage(0), stage(depth - 1));
-                    let job = cl.icu.stage_job(0).map(|(j, _)| j);
-                    let (ray, patch) = job.map_or((0, 0), |j| (j.ray as u64, j.patch as u64));
-                    stage_job(p, first, job.is_some() as u64, ray, patch);
-                    p.fixed_zero(first, "t", t_bits, t_frac);
+                    cl.icu.first_stage_signals(p, stage(0), t);
                     p.move_stages(stages);
-                    let t = cl.icu.stage_job(depth - 1).and_then(|(_, t)| t);
-                    p.fixed(last, "t", t_bits, t_frac, t.unwrap_or(0));
+                    cl.icu.result_t_signal(p, stage(depth - 1), t);
                 }
             } else {
-                // t is shown in the result stage only (`for_each_stage` gives it there alone).
-                let mut stages = cs.stages.iter();
-                cl.icu.for_each_stage(|valid, ray, patch, t| {
-                    let ss = stages.next().map_or("", String::as_str);
-                    stage_job(p, ss, valid, ray, patch);
-                    match t {
-                        Some(t) => p.fixed(ss, "t", t_bits, t_frac, t),
-                        None => p.fixed_zero(ss, "t", t_bits, t_frac),
-                    }
-                });
+                cl.icu.stage_signals(p, &cs.stages, t);
             }
         }
     }
-}
-
-/// An ICU stage's job signals: valid, ray, patch (its t follows).
-#[inline(always)]
-fn stage_job<S: Sink>(p: &mut S, scope: &str, valid: u64, ray: u64, patch: u64) {
-    p.bits(scope, "valid", 1, valid);
-    p.bits(scope, "ray", 32, ray);
-    p.bits(scope, "patch", 24, patch);
 }
 
 /// Units whose signals the walk skips while they stay quiet ([`Sink::skip_quiet`]): each
@@ -735,7 +662,7 @@ mod tests {
     /// Reports the advanced ICU to `f` as the walk does.
     fn advance<S: Sink>(f: &mut S) {
         assert_eq!(f.shift_stages(STAGES), Shift::Moved);
-        stage_job(f, "", 0, 0, 0);
+        Icu::stage_job_signals(f, "", 0, 0, 0);
         f.fixed_zero("", "t", 8, 0);
         f.move_stages(STAGES);
         f.fixed("", "t", 8, 0, 4);

@@ -29,6 +29,7 @@ use crate::datapath::model::STOP_SLACK_T_LSB;
 use crate::datapath::record::{CellTable, RayRecord};
 use crate::datapath::{compare, FixedHit};
 use crate::link::{Link, UnitCode, UnitId};
+use crate::machine::sink::Sink;
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, PatchArrival};
 use crate::units::ray_pool::RayList;
 use bitvec::prelude::*;
@@ -252,6 +253,30 @@ pub struct Ctu {
 }
 
 impl Ctu {
+    /// A CTU's waveform signals: [`Ctu::signals`] reports exactly these (the walk skips
+    /// this many for a CTU that cannot have changed them).
+    pub const SIGNALS: usize = 6;
+    /// Its bundle signals, after its links: [`Ctu::bundle_signals`] reports these.
+    pub const BUNDLE_SIGNALS: usize = 1;
+
+    /// Reports the CTU's waveform signals to `s` under `scope` (a new signal: one line here,
+    /// counted in [`Ctu::SIGNALS`]; it must change only in [`Ctu::tick_active`]).
+    #[inline(always)]
+    pub(crate) fn signals(&self, s: &mut impl Sink, scope: &str) {
+        s.text(scope, "state", CtuState::NAMES, self.state.index());
+        s.bits(scope, "shell", 16, self.shell() as u64);
+        s.bits(scope, "remaining_rays", 32, self.remaining() as u64);
+        s.bits(scope, "outstanding_jobs", 32, self.outstanding());
+        s.bits(scope, "pending_loads", 16, self.pending_loads() as u64);
+        s.bits(scope, "jobs_issued", 32, self.stats.jobs_issued);
+    }
+
+    /// Reports the CTU's bundle signals to `s` under `scope` ([`Ctu::BUNDLE_SIGNALS`]).
+    #[inline(always)]
+    pub(crate) fn bundle_signals(&self, s: &mut impl Sink, scope: &str) {
+        s.bits(scope, "descriptors", 32, self.stats.descriptors);
+    }
+
     /// The CTU with `ids` marked loaded before it starts: patches its source's rays pass
     /// through (coplanar twins), never requested — like the source.
     pub fn skipping(mut self, ids: &[u32]) -> Self {
@@ -1115,5 +1140,16 @@ mod tests {
         // … at 2, ⌊ids of the cell / 2⌋ + 1 per cell: fewer, never below ids / 2.
         assert!(scanning(s2) < scanning(s1), "{s1:?}\n{s2:?}");
         assert!(2 * scanning(s2) >= s2.ids_scanned, "{s2:?}");
+    }
+
+    #[test]
+    fn a_ctu_reports_its_signal_counts() {
+        use crate::machine::sink::Count;
+        let (cells, rays) = scene();
+        let ctu = Ctu::new(params(8), &[0, 1], &rays, &cells, 3);
+        let (mut a, mut b) = (Count::default(), Count::default());
+        ctu.signals(&mut a, "");
+        ctu.bundle_signals(&mut b, "");
+        assert_eq!((a.0, b.0), (Ctu::SIGNALS, Ctu::BUNDLE_SIGNALS));
     }
 }
