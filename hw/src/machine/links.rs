@@ -286,7 +286,6 @@ fn commit_family<T: Clone>(family: &mut [Link<T>], words: &[TouchWord]) {
 
 /// Reports a link's registered valid, ready, occupancy and transfer count (a filler skips
 /// them when no edge touched the link since the last sample).
-#[inline(always)]
 pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>) {
     if !p.skip_unchanged(l.take_changed(), Link::<T>::SIGNALS) {
         l.signals(p, scope);

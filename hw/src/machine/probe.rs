@@ -60,37 +60,126 @@ impl Sink for Declare {
     }
 }
 
-/// Values a [`Fill`] holds: layouts up to this size (the paper's machine has 435 signals,
-/// 16 clusters about 1,700) are filled without a bound check per value; larger ones through
-/// [`FillChecked`].
+/// Values [`Fixed`] arrays hold: layouts up to this size (the paper's machine has 435
+/// signals, 16 clusters about 1,700) are filled without a bound check per value; larger
+/// ones through [`Checked`] slices.
 const FILL_CAP: usize = 1 << 12;
 
 /// A stage's signals that [`Sink::shift_stages`] can move on (an ICU moves 3): a filler
 /// keeps this many of stage 0's values to hand to stage 1.
 const CARRY: usize = 4;
 
-/// Positions a [`Fill`]'s change list holds: every position of 16 bits, so the list's end,
+/// Positions [`Fixed`] arrays' change list holds: every position of 16 bits, so the list's end,
 /// taken as 16 bits, needs no bound check nor mask (one zero-extension where a wrap at
 /// [`FILL_CAP`] takes a copy and a mask); it never passes `FILL_CAP`. Only the list's first
 /// positions are ever written (a fresh allocation's pages are mapped when first touched).
 const LIST_CAP: usize = 1 << 16;
 
-/// Fills the value array in signal order, over the last sample's values, and lists the
-/// positions it changes as it goes. The position wraps at the array's size and the list's
-/// end at the list's ([`LIST_CAP`]), so no put can panic (the compiler then keeps them in
-/// registers over a run of puts and drops the bound checks); `Machine::probe` checks once
-/// per sample that the walk filled exactly the layout, which is never larger than the array.
-struct Fill<'a> {
+/// Where a [`Fill`] keeps the value array and the change list: [`Fixed`] arrays, whose
+/// puts need no bound check, or [`Checked`] slices of any size. The one filler is written
+/// once over this and compiled for each.
+trait Arrays {
+    /// The arrays always hold a whole earlier sample ([`Fixed`] ones serve only after the
+    /// first), so no skip tests for it.
+    const FILLED: bool;
+    /// Sets position `at` to `v`, lists it at `*listed` when that changed it, and returns
+    /// the value it held.
+    fn set(&mut self, listed: &mut usize, at: usize, v: u64) -> u64;
+    /// The value at position `at`.
+    fn get(&self, at: usize) -> u64;
+    /// Lists the entry `code` (a [`StageShift`]) at `*listed`, whatever the values.
+    fn list(&mut self, listed: &mut usize, code: u32);
+}
+
+/// Arrays of a fixed size: the position wraps at the array's size and the list's end at the
+/// list's ([`LIST_CAP`]), so no put can panic (the compiler then keeps them in registers
+/// over a run of puts and drops the bound checks); `Machine::probe` checks once per sample
+/// that the walk filled exactly the layout, which is never larger than the array.
+struct Fixed<'a> {
     values: &'a mut [u64; FILL_CAP],
-    pos: usize,
-    /// Positions listed in `changes` so far.
-    listed: usize,
-    /// This sample's changed positions, ascending, the first `listed` (past them: scratch).
     changes: &'a mut [u32; LIST_CAP],
+}
+
+impl Arrays for Fixed<'_> {
+    const FILLED: bool = true;
+
+    /// No branch: the position is always stored at the list's end, the end moved on only
+    /// for a change.
+    #[inline(always)]
+    fn set(&mut self, listed: &mut usize, at: usize, v: u64) -> u64 {
+        let i = at % FILL_CAP;
+        let old = std::mem::replace(&mut self.values[i], v);
+        self.changes[*listed as u16 as usize] = i as u32;
+        *listed += (old != v) as usize;
+        old
+    }
+
+    #[inline(always)]
+    fn get(&self, at: usize) -> u64 {
+        self.values[at % FILL_CAP]
+    }
+
+    #[inline(always)]
+    fn list(&mut self, listed: &mut usize, code: u32) {
+        self.changes[*listed as u16 as usize] = code;
+        *listed += 1;
+    }
+}
+
+/// Slices of any size (a layout past [`FILL_CAP`], and every layout's first sample): a
+/// bound check per value, nothing set (zero returned or read) past the array.
+struct Checked<'a> {
+    values: &'a mut [u64],
+    /// At least as long as `values` (a shift stands for more positions than it takes).
+    changes: &'a mut [u32],
+}
+
+impl Arrays for Checked<'_> {
+    const FILLED: bool = false;
+
+    #[inline(always)]
+    fn set(&mut self, listed: &mut usize, at: usize, v: u64) -> u64 {
+        let Some(x) = self.values.get_mut(at) else {
+            return 0;
+        };
+        let old = std::mem::replace(x, v);
+        if let Some(c) = self.changes.get_mut(*listed) {
+            *c = at as u32;
+            *listed += (old != v) as usize;
+        }
+        old
+    }
+
+    #[inline(always)]
+    fn get(&self, at: usize) -> u64 {
+        self.values.get(at).copied().unwrap_or(0)
+    }
+
+    #[inline(always)]
+    fn list(&mut self, listed: &mut usize, code: u32) {
+        if let Some(c) = self.changes.get_mut(*listed) {
+            *c = code;
+            *listed += 1;
+        }
+    }
+}
+
+/// Fills the value array in signal order, over the last sample's values, and lists the
+/// positions it changes as it goes (the [`Sink`] of every sample: every kind of signal is
+/// one value put in order).
+struct Fill<'a, A> {
+    arrays: A,
+    pos: usize,
+    /// Positions listed in the change list so far (this sample's changed positions,
+    /// ascending; past them: scratch).
+    listed: usize,
     /// Per unit of [`quiet_units`]: it was quiet at the last sample.
     quiet: &'a [Cell<bool>],
     /// Per cluster: its ICU's ring position at the last sample.
     ring: &'a [Cell<usize>],
+    /// The arrays hold a whole earlier sample (unchanged units may be skipped); always,
+    /// for [`Arrays::FILLED`] ones.
+    filled_before: bool,
     /// Stage 0's moving values at the last sample, kept by [`Sink::shift_stages`] for
     /// [`Sink::move_stages`] (unless it listed a [`StageShift`]: `shifted`).
     carry: [u64; CARRY],
@@ -100,30 +189,45 @@ struct Fill<'a> {
     shifted: bool,
 }
 
-impl Fill<'_> {
-    /// Sets position `at` to `v`, lists it when that changed it (no branch: the position is
-    /// always stored at the list's end, the end moved on only for a change) and returns the
-    /// value it held.
+impl<'a, A: Arrays> Fill<'a, A> {
+    /// A filler over `arrays`, at the start of a sample.
+    fn new(
+        arrays: A,
+        quiet: &'a [Cell<bool>],
+        ring: &'a [Cell<usize>],
+        filled_before: bool,
+        shifts: bool,
+    ) -> Self {
+        Fill {
+            arrays,
+            pos: 0,
+            listed: 0,
+            quiet,
+            ring,
+            filled_before,
+            carry: [0; CARRY],
+            shifts,
+            shifted: false,
+        }
+    }
+
+    /// Sets position `at` to `v` (listing it when that changed it) and returns the value it
+    /// held.
     #[inline(always)]
     fn set(&mut self, at: usize, v: u64) -> u64 {
-        let i = at % FILL_CAP;
-        let old = std::mem::replace(&mut self.values[i], v);
-        self.changes[self.listed as u16 as usize] = i as u32;
-        self.listed += (old != v) as usize;
-        old
+        self.arrays.set(&mut self.listed, at, v)
     }
 
     /// The value at position `at`.
     #[inline(always)]
     fn get(&self, at: usize) -> u64 {
-        self.values[at % FILL_CAP]
+        self.arrays.get(at)
     }
 
-    /// True: a [`Fill`] fills over a whole earlier sample only (the first goes through
-    /// [`FillChecked`]), so no skip tests for it.
+    /// The arrays hold a whole earlier sample.
     #[inline(always)]
     fn filled_before(&self) -> bool {
-        true
+        A::FILLED || self.filled_before
     }
 
     /// Puts `v` at the next position, listing it when it changed the value there.
@@ -132,195 +236,120 @@ impl Fill<'_> {
         self.set(self.pos, v);
         self.pos += 1;
     }
-
-    /// Lists the entry `code` (a [`StageShift`]) whatever the values.
-    #[inline(always)]
-    fn list(&mut self, code: u32) {
-        self.changes[self.listed as u16 as usize] = code;
-        self.listed += 1;
-    }
 }
 
-/// Fills a value array of any size (a layout past [`FILL_CAP`], and every layout's first
-/// sample) as [`Fill`] does, a bound check per value.
-struct FillChecked<'a> {
-    values: &'a mut [u64],
-    pos: usize,
-    listed: usize,
-    /// At least as long as `values`.
-    changes: &'a mut [u32],
-    quiet: &'a [Cell<bool>],
-    ring: &'a [Cell<usize>],
-    filled_before: bool,
-    carry: [u64; CARRY],
-    shifts: bool,
-    shifted: bool,
-}
-
-impl FillChecked<'_> {
-    /// [`Fill::set`], nothing set (zero returned) past the array.
+impl<A: Arrays> Sink for Fill<'_, A> {
     #[inline(always)]
-    fn set(&mut self, at: usize, v: u64) -> u64 {
-        let Some(x) = self.values.get_mut(at) else {
-            return 0;
-        };
-        let old = std::mem::replace(x, v);
-        if let Some(c) = self.changes.get_mut(self.listed) {
-            *c = at as u32;
-            self.listed += (old != v) as usize;
-        }
-        old
+    fn bits(&mut self, _: &str, _: &'static str, width: u32, value: u64) {
+        self.put(value & mask(width));
     }
-
-    /// [`Fill::get`], zero past the array.
     #[inline(always)]
-    fn get(&self, at: usize) -> u64 {
-        self.values.get(at).copied().unwrap_or(0)
+    fn text(&mut self, _: &str, _: &'static str, _: &'static [&'static str], index: u64) {
+        self.put(index);
     }
-
-    /// The array holds a whole earlier sample (unchanged links may be skipped).
     #[inline(always)]
-    fn filled_before(&self) -> bool {
-        self.filled_before
+    fn fixed(&mut self, _: &str, _: &'static str, width: u32, _: u32, raw: i64) {
+        self.put(raw as u64 & mask(width));
     }
-
-    /// [`Fill::put`].
     #[inline(always)]
-    fn put(&mut self, v: u64) {
-        self.set(self.pos, v);
+    fn fixed_zero(&mut self, _: &str, _: &'static str, _: u32, _: u32) {
         self.pos += 1;
     }
-
-    /// [`Fill::list`] (the list is as long as the array: a shift stands for more positions
-    /// than it takes).
     #[inline(always)]
-    fn list(&mut self, code: u32) {
-        if let Some(c) = self.changes.get_mut(self.listed) {
-            *c = code;
-            self.listed += 1;
+    fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
+        let Some(was) = self.quiet.get(u) else {
+            return false;
+        };
+        let skip = was.replace(quiet) && quiet;
+        if skip {
+            self.pos += n;
         }
+        skip
+    }
+    #[inline(always)]
+    fn shift_stages(&mut self, stages: Stages) -> Shift {
+        let Stages {
+            cluster: c,
+            position,
+            stride,
+            width,
+            signals: n,
+        } = stages;
+        let Some(at) = self.ring.get(c) else {
+            return Shift::Walk;
+        };
+        let moved = at.replace(position) != position;
+        let fits = stride > 0 && width <= CARRY.min(stride) && n >= 2 * stride;
+        if !self.filled_before() || !fits {
+            return Shift::Walk;
+        }
+        if !moved {
+            self.pos += n;
+            return Shift::Held;
+        }
+        // The probe moves them itself: one entry, ahead of stage 0's changes.
+        let shift = StageShift {
+            at: self.pos + stride,
+            stride,
+            width,
+            later: n / stride - 1,
+        };
+        self.shifted = false;
+        if let (true, Some(code)) = (self.shifts, shift.encode()) {
+            self.arrays.list(&mut self.listed, code);
+            self.shifted = true;
+            return Shift::Moved;
+        }
+        for j in 0..width {
+            self.carry[j] = self.get(self.pos + j);
+        }
+        Shift::Moved
+    }
+    #[inline(always)]
+    fn move_stages(&mut self, stages: Stages) {
+        let Stages {
+            stride,
+            width,
+            signals: n,
+            ..
+        } = stages;
+        // Stage k takes stage k − 1's value as it was, its own carried on to k + 1. Two
+        // stages a round, the second taking the first's values where they were read
+        // (carried from stage to stage, they would be copied between registers).
+        let later = n / stride - 1;
+        if self.shifted {
+            self.pos += (later - 1) * stride + width;
+            return;
+        }
+        let mut carry = self.carry;
+        let mut at = self.pos;
+        for _ in 0..later / 2 {
+            let mut mid = [0; CARRY];
+            for (j, (m, c)) in mid.iter_mut().zip(&carry).enumerate().take(width) {
+                *m = self.set(at + j, *c);
+            }
+            for (j, (c, m)) in carry.iter_mut().zip(&mid).enumerate().take(width) {
+                *c = self.set(at + stride + j, *m);
+            }
+            at += 2 * stride;
+        }
+        if later % 2 == 1 {
+            for (j, c) in carry.iter_mut().enumerate().take(width) {
+                *c = self.set(at + j, *c);
+            }
+            at += stride;
+        }
+        self.pos = at - stride + width;
+    }
+    #[inline(always)]
+    fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
+        let skip = !changed && self.filled_before();
+        if skip {
+            self.pos += n;
+        }
+        skip
     }
 }
-
-/// The [`Sink`] of a filler: every kind of signal is one value put in order.
-macro_rules! fill_sink {
-    ($t:ident) => {
-        impl Sink for $t<'_> {
-            #[inline(always)]
-            fn bits(&mut self, _: &str, _: &'static str, width: u32, value: u64) {
-                self.put(value & mask(width));
-            }
-            #[inline(always)]
-            fn text(&mut self, _: &str, _: &'static str, _: &'static [&'static str], index: u64) {
-                self.put(index);
-            }
-            #[inline(always)]
-            fn fixed(&mut self, _: &str, _: &'static str, width: u32, _: u32, raw: i64) {
-                self.put(raw as u64 & mask(width));
-            }
-            #[inline(always)]
-            fn fixed_zero(&mut self, _: &str, _: &'static str, _: u32, _: u32) {
-                self.pos += 1;
-            }
-            #[inline(always)]
-            fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
-                let Some(was) = self.quiet.get(u) else {
-                    return false;
-                };
-                let skip = was.replace(quiet) && quiet;
-                if skip {
-                    self.pos += n;
-                }
-                skip
-            }
-            #[inline(always)]
-            fn shift_stages(&mut self, stages: Stages) -> Shift {
-                let Stages {
-                    cluster: c,
-                    position,
-                    stride,
-                    width,
-                    signals: n,
-                } = stages;
-                let Some(at) = self.ring.get(c) else {
-                    return Shift::Walk;
-                };
-                let moved = at.replace(position) != position;
-                let fits = stride > 0 && width <= CARRY.min(stride) && n >= 2 * stride;
-                if !self.filled_before() || !fits {
-                    return Shift::Walk;
-                }
-                if !moved {
-                    self.pos += n;
-                    return Shift::Held;
-                }
-                // The probe moves them itself: one entry, ahead of stage 0's changes.
-                let shift = StageShift {
-                    at: self.pos + stride,
-                    stride,
-                    width,
-                    later: n / stride - 1,
-                };
-                self.shifted = false;
-                if let (true, Some(code)) = (self.shifts, shift.encode()) {
-                    self.list(code);
-                    self.shifted = true;
-                    return Shift::Moved;
-                }
-                for j in 0..width {
-                    self.carry[j] = self.get(self.pos + j);
-                }
-                Shift::Moved
-            }
-            #[inline(always)]
-            fn move_stages(&mut self, stages: Stages) {
-                let Stages {
-                    stride,
-                    width,
-                    signals: n,
-                    ..
-                } = stages;
-                // Stage k takes stage k − 1's value as it was, its own carried on to k + 1.
-                // Two stages a round, the second taking the first's values where they were
-                // read (carried from stage to stage, they would be copied between registers).
-                let later = n / stride - 1;
-                if self.shifted {
-                    self.pos += (later - 1) * stride + width;
-                    return;
-                }
-                let mut carry = self.carry;
-                let mut at = self.pos;
-                for _ in 0..later / 2 {
-                    let mut mid = [0; CARRY];
-                    for (j, (m, c)) in mid.iter_mut().zip(&carry).enumerate().take(width) {
-                        *m = self.set(at + j, *c);
-                    }
-                    for (j, (c, m)) in carry.iter_mut().zip(&mid).enumerate().take(width) {
-                        *c = self.set(at + stride + j, *m);
-                    }
-                    at += 2 * stride;
-                }
-                if later % 2 == 1 {
-                    for (j, c) in carry.iter_mut().enumerate().take(width) {
-                        *c = self.set(at + j, *c);
-                    }
-                    at += stride;
-                }
-                self.pos = at - stride + width;
-            }
-            #[inline(always)]
-            fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
-                let skip = !changed && self.filled_before();
-                if skip {
-                    self.pos += n;
-                }
-                skip
-            }
-        }
-    };
-}
-fill_sink!(Fill);
-fill_sink!(FillChecked);
 
 impl Machine<'_> {
     /// Reports every unit's signals at the current cycle to `p`: the layout first (once per
@@ -362,36 +391,9 @@ impl Machine<'_> {
         );
         let (filled, changed) = match fixed {
             (Ok(values), Ok(changes)) if n <= FILL_CAP && filled_before => {
-                let mut f = Fill {
-                    values,
-                    pos: 0,
-                    listed: 0,
-                    changes,
-                    quiet: &sc.quiet,
-                    ring: &sc.ring,
-                    carry: [0; CARRY],
-                    shifts,
-                    shifted: false,
-                };
-                self.walk(sc, &mut f);
-                (f.pos, f.listed)
+                self.fill_fixed(sc, values, changes, shifts)
             }
-            _ => {
-                let mut f = FillChecked {
-                    values: &mut values,
-                    pos: 0,
-                    listed: 0,
-                    changes: &mut changes,
-                    quiet: &sc.quiet,
-                    ring: &sc.ring,
-                    filled_before,
-                    carry: [0; CARRY],
-                    shifts,
-                    shifted: false,
-                };
-                self.walk(sc, &mut f);
-                (f.pos, f.listed)
-            }
+            _ => self.fill_checked(sc, &mut values, &mut changes, filled_before, shifts),
         };
         assert_eq!(filled, n, "the walk's layout never changes");
         p.sample_changes(self.cycle, &values[..n], &changes[..changed]);
@@ -402,7 +404,45 @@ impl Machine<'_> {
         }
     }
 
+    /// Fills [`Fixed`] arrays over a whole earlier sample: the signals filled and the
+    /// changes listed. The arrays are arguments of their own, so the compiler knows that
+    /// no put changes what the walk reads (the machine holds cells), and the filler's
+    /// position and list end stay in registers over the walk (inlined here).
+    #[inline(never)]
+    fn fill_fixed(
+        &self,
+        sc: &Scopes,
+        values: &mut [u64; FILL_CAP],
+        changes: &mut [u32; LIST_CAP],
+        shifts: bool,
+    ) -> (usize, usize) {
+        let a = Fixed { values, changes };
+        self.fill(sc, Fill::new(a, &sc.quiet, &sc.ring, true, shifts))
+    }
+
+    /// [`Machine::fill_fixed`] for [`Checked`] slices.
+    #[inline(never)]
+    fn fill_checked(
+        &self,
+        sc: &Scopes,
+        values: &mut [u64],
+        changes: &mut [u32],
+        filled_before: bool,
+        shifts: bool,
+    ) -> (usize, usize) {
+        let a = Checked { values, changes };
+        self.fill(sc, Fill::new(a, &sc.quiet, &sc.ring, filled_before, shifts))
+    }
+
+    /// Walks `f` over every signal: the signals filled and the changes listed.
+    #[inline(always)]
+    fn fill<A: Arrays>(&self, sc: &Scopes, mut f: Fill<'_, A>) -> (usize, usize) {
+        self.walk(sc, &mut f);
+        (f.pos, f.listed)
+    }
+
     /// Visits every signal in the waveform's order.
+    #[inline(always)]
     fn walk<S: Sink>(&self, sc: &Scopes, p: &mut S) {
         // Two copies: with every unit shown (the tests of `Scopes::shown` compiled out, as
         // no scope filter costs anything) and with some left out.
@@ -681,18 +721,12 @@ mod tests {
         changes: &'a mut [u32],
         ring: &'a [Cell<usize>],
         shifts: bool,
-    ) -> Fill<'a> {
-        Fill {
+    ) -> Fill<'a, Fixed<'a>> {
+        let a = Fixed {
             values: values.try_into().expect("FILL_CAP values"),
-            pos: 0,
-            listed: 0,
             changes: changes.try_into().expect("LIST_CAP positions"),
-            quiet: &[],
-            ring,
-            carry: [0; CARRY],
-            shifts,
-            shifted: false,
-        }
+        };
+        Fill::new(a, &[], ring, true, shifts)
     }
 
     /// The values after the move, and the positions that changed, ascending.
@@ -711,22 +745,15 @@ mod tests {
     }
 
     #[test]
-    fn fill_checked_moves_an_advanced_icus_stages_listing_the_changes_ascending() {
+    fn a_checked_fill_moves_an_advanced_icus_stages_listing_the_changes_ascending() {
         let ring = [Cell::new(0)];
         let mut values = LAST.to_vec();
         let mut changes = vec![0u32; 12];
-        let mut f = FillChecked {
+        let a = Checked {
             values: &mut values,
-            pos: 0,
-            listed: 0,
             changes: &mut changes,
-            quiet: &[],
-            ring: &ring,
-            filled_before: true,
-            carry: [0; CARRY],
-            shifts: false,
-            shifted: false,
         };
+        let mut f = Fill::new(a, &[], &ring, true, false);
         advance(&mut f);
         assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
         assert_eq!(values, NEXT);
