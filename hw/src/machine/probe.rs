@@ -11,10 +11,12 @@
 //! edge touched, a stage's t before the result stage (always zero). For a probe that
 //! [`Probe::shifts_stages`], an advanced ICU's later stages are not moved in the array: one
 //! [`StageShift`] entry in the list stands for them, and the probe moves its own copy.
+//!
+//! The run owns a [`Sampler`] that keeps all of this — the scopes, the arrays and what each
+//! unit showed at the last sample (quiet or not, an ICU's ring position, a CTU's active
+//! cycles) — so looking at the machine changes nothing in it.
 
-use std::cell::Cell;
-
-use super::links::{probe_link, Section};
+use super::links::{probe_link, LinkShown, Section};
 use super::sink::{Shift, Sink, Stages};
 use super::Machine;
 use crate::trace::{Probe, SignalDecl, SignalKind, StageShift};
@@ -173,10 +175,8 @@ struct Fill<'a, A> {
     /// Positions listed in the change list so far (this sample's changed positions,
     /// ascending; past them: scratch).
     listed: usize,
-    /// Per unit of [`quiet_units`]: it was quiet at the last sample.
-    quiet: &'a [Cell<bool>],
-    /// Per cluster: its ICU's ring position at the last sample.
-    ring: &'a [Cell<usize>],
+    /// What the units showed at the last sample, updated as the walk goes.
+    last: Last<'a>,
     /// The arrays hold a whole earlier sample (unchanged units may be skipped); always,
     /// for [`Arrays::FILLED`] ones.
     filled_before: bool,
@@ -191,19 +191,12 @@ struct Fill<'a, A> {
 
 impl<'a, A: Arrays> Fill<'a, A> {
     /// A filler over `arrays`, at the start of a sample.
-    fn new(
-        arrays: A,
-        quiet: &'a [Cell<bool>],
-        ring: &'a [Cell<usize>],
-        filled_before: bool,
-        shifts: bool,
-    ) -> Self {
+    fn new(arrays: A, last: Last<'a>, filled_before: bool, shifts: bool) -> Self {
         Fill {
             arrays,
             pos: 0,
             listed: 0,
-            quiet,
-            ring,
+            last,
             filled_before,
             carry: [0; CARRY],
             shifts,
@@ -257,10 +250,10 @@ impl<A: Arrays> Sink for Fill<'_, A> {
     }
     #[inline(always)]
     fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
-        let Some(was) = self.quiet.get(u) else {
+        let Some(was) = self.last.quiet.get_mut(u) else {
             return false;
         };
-        let skip = was.replace(quiet) && quiet;
+        let skip = std::mem::replace(was, quiet) && quiet;
         if skip {
             self.pos += n;
         }
@@ -275,10 +268,10 @@ impl<A: Arrays> Sink for Fill<'_, A> {
             width,
             signals: n,
         } = stages;
-        let Some(at) = self.ring.get(c) else {
+        let Some(at) = self.last.ring.get_mut(c) else {
             return Shift::Walk;
         };
-        let moved = at.replace(position) != position;
+        let moved = std::mem::replace(at, position) != position;
         let fits = stride > 0 && width <= CARRY.min(stride) && n >= 2 * stride;
         if !self.filled_before() || !fits {
             return Shift::Walk;
@@ -342,6 +335,13 @@ impl<A: Arrays> Sink for Fill<'_, A> {
         self.pos = at - stride + width;
     }
     #[inline(always)]
+    fn moved(&mut self, u: usize, count: u64) -> bool {
+        match self.last.counts.get_mut(u) {
+            Some(was) => std::mem::replace(was, count) != count,
+            None => true,
+        }
+    }
+    #[inline(always)]
     fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
         let skip = !changed && self.filled_before();
         if skip {
@@ -351,59 +351,93 @@ impl<A: Arrays> Sink for Fill<'_, A> {
     }
 }
 
-impl Machine<'_> {
-    /// Reports every unit's signals at the current cycle to `p`: the layout first (once per
-    /// machine), then the sample's values.
-    pub fn probe(&mut self, p: &mut dyn Probe) {
-        if self.scopes.is_none() {
-            // Units whose scopes the probe keeps none of are left out of the layout.
-            let wants = |s: &str| p.wants(s);
-            self.links.show_only(&wants);
-            let sc = Scopes::new(self, &wants);
-            let mut d = Declare(Vec::new());
-            self.walk(&sc, &mut d);
-            p.declare(&d.0);
-            let n = d.0.len();
-            self.probe_values = vec![0; n.max(FILL_CAP)];
-            self.probe_changes = vec![0; n.max(LIST_CAP)];
-            self.scopes = Some(Scopes {
-                signals: n,
-                quiet: vec![Cell::new(false); quiet_units(self)],
-                ring: self
-                    .clusters
-                    .iter()
-                    .map(|c| Cell::new(c.icu.ring_position()))
-                    .collect(),
-                filled: false,
-                ..sc
-            });
-        }
-        // The walk reads the scopes where they are, and the fillers update their state in
-        // them through cells; only the arrays are moved out.
-        let mut values = std::mem::take(&mut self.probe_values);
-        let mut changes = std::mem::take(&mut self.probe_changes);
-        let sc = self.scopes.as_ref().expect("built above");
-        let (n, filled_before) = (sc.signals, sc.filled);
+/// What the units showed at the last sample, as a filler reads and updates it.
+struct Last<'a> {
+    /// Per unit of [`quiet_units`]: it was quiet.
+    quiet: &'a mut [bool],
+    /// Per cluster: its ICU's ring position.
+    ring: &'a mut [usize],
+    /// Per CTU, cluster-major: its [`Ctu::active_cycles`] ([`Sink::moved`]).
+    counts: &'a mut [u64],
+}
+
+/// What a run keeps to sample the machine's waveform, none of it in the model: the scopes
+/// (built on the first sample), the value array and change list (allocated with the layout,
+/// reused), and what each unit showed at the last sample.
+#[derive(Debug, Default)]
+pub struct Sampler {
+    scopes: Option<Scopes>,
+    /// One value per signal (at least [`FILL_CAP`]).
+    values: Vec<u64>,
+    /// The last sample's changed positions, ascending (listed by the walk as it puts them;
+    /// at least [`LIST_CAP`]).
+    changes: Vec<u32>,
+    /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
+    signals: usize,
+    /// Per unit of [`quiet_units`]: it was quiet at the last sample.
+    quiet: Vec<bool>,
+    /// Per cluster: its ICU's ring position at the last sample.
+    ring: Vec<usize>,
+    /// Per CTU, cluster-major: its active cycles at the last sample.
+    counts: Vec<u64>,
+    /// The value array holds a whole sample (after the first fill).
+    filled: bool,
+}
+
+impl Sampler {
+    /// Reports every unit's signals of `m` at its current cycle to `p`: the layout first
+    /// (on the first sample), then the sample's values.
+    pub fn sample(&mut self, m: &Machine, p: &mut dyn Probe) {
+        let sc = match &self.scopes {
+            Some(sc) => sc,
+            None => {
+                // Units whose scopes the probe keeps none of are left out of the layout.
+                let wants = |s: &str| p.wants(s);
+                let sc = Scopes::new(m, &wants);
+                let mut d = Declare(Vec::new());
+                m.walk(&sc, &mut d);
+                p.declare(&d.0);
+                let n = d.0.len();
+                self.values = vec![0; n.max(FILL_CAP)];
+                self.changes = vec![0; n.max(LIST_CAP)];
+                self.signals = n;
+                self.quiet = vec![false; quiet_units(m)];
+                self.ring = m.clusters.iter().map(|c| c.icu.ring_position()).collect();
+                self.counts = vec![0; m.clusters.iter().map(|c| c.ctus.len()).sum()];
+                self.scopes.insert(sc)
+            }
+        };
+        let (n, filled_before) = (self.signals, self.filled);
         let shifts = p.shifts_stages();
+        let last = Last {
+            quiet: &mut self.quiet,
+            ring: &mut self.ring,
+            counts: &mut self.counts,
+        };
         let fixed = (
-            <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
-            <&mut [u32; LIST_CAP]>::try_from(&mut changes[..]),
+            <&mut [u64; FILL_CAP]>::try_from(&mut self.values[..]),
+            <&mut [u32; LIST_CAP]>::try_from(&mut self.changes[..]),
         );
         let (filled, changed) = match fixed {
             (Ok(values), Ok(changes)) if n <= FILL_CAP && filled_before => {
-                self.fill_fixed(sc, values, changes, shifts)
+                m.fill_fixed(sc, values, changes, last, shifts)
             }
-            _ => self.fill_checked(sc, &mut values, &mut changes, filled_before, shifts),
+            _ => m.fill_checked(
+                sc,
+                &mut self.values,
+                &mut self.changes,
+                last,
+                filled_before,
+                shifts,
+            ),
         };
         assert_eq!(filled, n, "the walk's layout never changes");
-        p.sample_changes(self.cycle, &values[..n], &changes[..changed]);
-        self.probe_values = values;
-        self.probe_changes = changes;
-        if let Some(sc) = &mut self.scopes {
-            sc.filled = true;
-        }
+        p.sample_changes(m.cycle, &self.values[..n], &self.changes[..changed]);
+        self.filled = true;
     }
+}
 
+impl Machine<'_> {
     /// Fills [`Fixed`] arrays over a whole earlier sample: the signals filled and the
     /// changes listed. The arrays are arguments of their own, so the compiler knows that
     /// no put changes what the walk reads (the machine holds cells), and the filler's
@@ -414,10 +448,11 @@ impl Machine<'_> {
         sc: &Scopes,
         values: &mut [u64; FILL_CAP],
         changes: &mut [u32; LIST_CAP],
+        last: Last<'_>,
         shifts: bool,
     ) -> (usize, usize) {
         let a = Fixed { values, changes };
-        self.fill(sc, Fill::new(a, &sc.quiet, &sc.ring, true, shifts))
+        self.fill(sc, Fill::new(a, last, true, shifts))
     }
 
     /// [`Machine::fill_fixed`] for [`Checked`] slices.
@@ -427,11 +462,12 @@ impl Machine<'_> {
         sc: &Scopes,
         values: &mut [u64],
         changes: &mut [u32],
+        last: Last<'_>,
         filled_before: bool,
         shifts: bool,
     ) -> (usize, usize) {
         let a = Checked { values, changes };
-        self.fill(sc, Fill::new(a, &sc.quiet, &sc.ring, filled_before, shifts))
+        self.fill(sc, Fill::new(a, last, filled_before, shifts))
     }
 
     /// Walks `f` over every signal: the signals filled and the changes listed.
@@ -468,7 +504,8 @@ impl Machine<'_> {
         if !FILTERED || sc.shown.arbiter {
             self.memory.arbiter_signals(p, &sc.arbiter);
         }
-        self.links.probe::<S, FILTERED>(p, Section::Arbiter);
+        self.links
+            .probe::<S, FILTERED>(p, Section::Arbiter, &sc.links);
         if balance && (!FILTERED || sc.shown.balancer) {
             self.balancer.signals(p, &sc.balancer);
         }
@@ -479,7 +516,8 @@ impl Machine<'_> {
                 self.balancer.cluster_signals(p, &cs.balance, c);
             }
             if balance {
-                self.links.probe::<S, FILTERED>(p, Section::Balance(c));
+                self.links
+                    .probe::<S, FILTERED>(p, Section::Balance(c), &sc.links);
             }
             if !FILTERED || cs.shown.patch_buffer {
                 probe_link(p, &cs.patch_buffer, &cl.patch_buffer.store);
@@ -495,13 +533,13 @@ impl Machine<'_> {
             }
             if bundle {
                 self.links
-                    .probe::<S, FILTERED>(p, Section::BundleCluster(c));
+                    .probe::<S, FILTERED>(p, Section::BundleCluster(c), &sc.links);
             }
             for (j, (ctu, s)) in cl.ctus.iter().zip(&cs.ctus).enumerate() {
                 // A finished CTU never ticks again: its signals are final; nor do they
                 // change in a cycle it did not tick actively.
                 let u = self.clusters.len() + c * cl.ctus.len() + j;
-                let ticked = ctu.take_ticked();
+                let ticked = p.moved(c * cl.ctus.len() + j, ctu.active_cycles());
                 let shown = !FILTERED || cs.shown.ctus.get(j).copied().unwrap_or(true);
                 if shown
                     && !p.skip_quiet(u, ctu.is_finished(), Ctu::SIGNALS)
@@ -509,12 +547,14 @@ impl Machine<'_> {
                 {
                     ctu.signals(p, s);
                 }
-                self.links.probe::<S, FILTERED>(p, Section::Ctu(c, j));
+                self.links
+                    .probe::<S, FILTERED>(p, Section::Ctu(c, j), &sc.links);
                 if bundle {
                     if shown {
                         ctu.bundle_signals(p, s);
                     }
-                    self.links.probe::<S, FILTERED>(p, Section::BundleCtu(c, j));
+                    self.links
+                        .probe::<S, FILTERED>(p, Section::BundleCtu(c, j), &sc.links);
                 }
             }
             if !FILTERED || cs.shown.icu {
@@ -563,18 +603,11 @@ pub(super) struct Scopes {
     balancer: String,
     arbiter: String,
     clusters: Vec<ClusterScopes>,
-    /// Which of these the probe keeps ([`crate::trace::Probe::wants`]), and whether it
-    /// keeps them all.
+    /// Which of these the probe keeps ([`crate::trace::Probe::wants`]), which links, and
+    /// whether it keeps them all.
     shown: Shown,
+    links: LinkShown,
     all_shown: bool,
-    /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
-    signals: usize,
-    /// Per unit of [`quiet_units`]: it was quiet at the last sample.
-    quiet: Vec<Cell<bool>>,
-    /// Per cluster: its ICU's ring position at the last sample.
-    ring: Vec<Cell<usize>>,
-    /// The value array holds a whole sample (after the first fill).
-    filled: bool,
 }
 
 /// Whether the probe keeps a unit's signals (any of its scopes), per unit.
@@ -612,7 +645,7 @@ struct ClusterScopes {
 impl Scopes {
     /// The scopes of `m`'s units, each shown when `wants` it.
     fn new(m: &Machine, wants: &dyn Fn(&str) -> bool) -> Self {
-        let links_all_shown = m.links.all_shown();
+        let links = m.links.shown(wants);
         let k = m.cfg.machine.ctus_per_cluster as usize;
         let memory = "machine.memory";
         let balancer = "machine.balancer";
@@ -655,11 +688,8 @@ impl Scopes {
                     }
                 })
                 .collect(),
+            links,
             all_shown: false,
-            signals: 0,
-            quiet: Vec::new(),
-            ring: Vec::new(),
-            filled: false,
         };
         let Shown {
             memory,
@@ -678,7 +708,7 @@ impl Scopes {
                     && s.stages
                     && s.ctus.iter().all(|&x| x)
             })
-            && links_all_shown;
+            && sc.links.all();
         sc
     }
 }
@@ -715,18 +745,27 @@ mod tests {
         (values, vec![0u32; LIST_CAP])
     }
 
+    /// What one ICU (its ring at `ring`) showed at the last sample, no quiet unit nor CTU.
+    fn last(ring: &mut [usize]) -> Last<'_> {
+        Last {
+            quiet: &mut [],
+            ring,
+            counts: &mut [],
+        }
+    }
+
     /// A [`Fill`] over `arrays()`, its probe shifting stages itself when `shifts`.
     fn fill<'a>(
         values: &'a mut [u64],
         changes: &'a mut [u32],
-        ring: &'a [Cell<usize>],
+        ring: &'a mut [usize],
         shifts: bool,
     ) -> Fill<'a, Fixed<'a>> {
         let a = Fixed {
             values: values.try_into().expect("FILL_CAP values"),
             changes: changes.try_into().expect("LIST_CAP positions"),
         };
-        Fill::new(a, &[], ring, true, shifts)
+        Fill::new(a, last(ring), true, shifts)
     }
 
     /// The values after the move, and the positions that changed, ascending.
@@ -735,9 +774,9 @@ mod tests {
 
     #[test]
     fn fill_moves_an_advanced_icus_stages_listing_the_changes_ascending() {
-        let ring = [Cell::new(0)];
+        let mut ring = [0];
         let (mut values, mut changes) = arrays();
-        let mut f = fill(&mut values, &mut changes, &ring, false);
+        let mut f = fill(&mut values, &mut changes, &mut ring, false);
         advance(&mut f);
         assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
         assert_eq!(values[..12], NEXT);
@@ -746,14 +785,14 @@ mod tests {
 
     #[test]
     fn a_checked_fill_moves_an_advanced_icus_stages_listing_the_changes_ascending() {
-        let ring = [Cell::new(0)];
+        let mut ring = [0];
         let mut values = LAST.to_vec();
         let mut changes = vec![0u32; 12];
         let a = Checked {
             values: &mut values,
             changes: &mut changes,
         };
-        let mut f = Fill::new(a, &[], &ring, true, false);
+        let mut f = Fill::new(a, last(&mut ring), true, false);
         advance(&mut f);
         assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
         assert_eq!(values, NEXT);
@@ -766,9 +805,9 @@ mod tests {
     /// same changes, ascending.
     #[test]
     fn a_shifting_probe_gets_one_entry_that_expands_to_the_same_changes() {
-        let ring = [Cell::new(0)];
+        let mut ring = [0];
         let (mut values, mut changes) = arrays();
-        let mut f = fill(&mut values, &mut changes, &ring, true);
+        let mut f = fill(&mut values, &mut changes, &mut ring, true);
         advance(&mut f);
         let listed = f.listed;
         assert_eq!(f.pos, 12);

@@ -47,10 +47,18 @@ pub(crate) trait Sink {
     fn move_stages(&mut self, stages: Stages) {
         let _ = stages;
     }
+    /// True when `count`, a counter of unit `u` (its number among the units the walk asks
+    /// this of: every CTU, cluster-major) that moves whenever the unit's signals may change
+    /// (`Ctu::active_cycles`), differs from its value at the last sample: a filler records
+    /// it (the model keeps no flag for the waveform). True unless a filler knows better.
+    fn moved(&mut self, u: usize, count: u64) -> bool {
+        let _ = (u, count);
+        true
+    }
     /// The next `n` signals are a unit's whose values can have changed since the last sample
-    /// only when `changed` (a link an edge touched, `Link::take_changed`; a CTU that ticked,
-    /// `Ctu::take_ticked`): a filler skips them when not, leaving the last sample's values,
-    /// once it has filled the array at least once. True when skipped.
+    /// only when `changed` (a link an edge touched, `Link::take_changed`; a CTU whose
+    /// counter [`Sink::moved`]): a filler skips them when not, leaving the last sample's
+    /// values, once it has filled the array at least once. True when skipped.
     fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
         let _ = (changed, n);
         false

@@ -33,7 +33,6 @@ use crate::machine::sink::Sink;
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, PatchArrival};
 use crate::units::ray_pool::RayList;
 use bitvec::prelude::*;
-use std::cell::Cell;
 
 /// The traversal FSM's states.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -248,8 +247,8 @@ pub struct Ctu {
     phase_of: BitVec,
     boundary_ray: Option<u32>,
     pub stats: CtuStats,
-    /// [`Ctu::tick_active`] ran since the waveform last looked ([`Ctu::take_ticked`]).
-    ticked: Cell<bool>,
+    /// Cycles [`Ctu::tick_active`] ran ([`Ctu::active_cycles`]).
+    active: u64,
 }
 
 impl Ctu {
@@ -260,7 +259,8 @@ impl Ctu {
     pub const BUNDLE_SIGNALS: usize = 1;
 
     /// Reports the CTU's waveform signals to `s` under `scope` (a new signal: one line here,
-    /// counted in [`Ctu::SIGNALS`]; it must change only in [`Ctu::tick_active`]).
+    /// counted in [`Ctu::SIGNALS`]; it must change only in [`Ctu::tick_active`], which
+    /// counts [`Ctu::active_cycles`]).
     #[inline(always)]
     pub(crate) fn signals(&self, s: &mut impl Sink, scope: &str) {
         s.text(scope, "state", CtuState::NAMES, self.state.index());
@@ -307,7 +307,7 @@ impl Ctu {
             p,
             me: UnitId::Ctu(p.cluster as usize, p.local as usize).into(),
             finished: false,
-            ticked: Cell::new(false),
+            active: 0,
             state: CtuState::Idle,
             remaining: (0..slots.len() as u32).collect(),
             best: vec![None; slots.len()],
@@ -481,13 +481,13 @@ impl Ctu {
         self.finished
     }
 
-    /// True when [`Ctu::tick_active`] ran since the last call, which clears it. Nothing else
-    /// changes what the waveform shows of a CTU (its state, shell, remaining rays,
-    /// outstanding jobs, pending loads, jobs issued): an idle cycle and a cycle jump only
-    /// count cycles, so the walk reads the CTU's signals only then.
+    /// Cycles [`Ctu::tick_active`] ran. Nothing else changes what the waveform shows of a
+    /// CTU (its state, shell, remaining rays, outstanding jobs, pending loads, jobs issued):
+    /// an idle cycle and a cycle jump only count cycles, so the waveform's sampler reads the
+    /// CTU's signals only when this moved since its last sample.
     #[inline(always)]
-    pub fn take_ticked(&self) -> bool {
-        self.ticked.replace(false)
+    pub fn active_cycles(&self) -> u64 {
+        self.active
     }
 
     /// A cycle of a finished CTU: `skip(1)` in DONE.
@@ -500,7 +500,7 @@ impl Ctu {
     /// A cycle with something to do (or to check).
     #[inline(always)]
     pub fn tick_active(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
-        self.ticked.set(true);
+        self.active += 1;
         self.stats.state_cycles.add(self.state, 1);
         let me = self.me;
         let mut busy = false;
