@@ -584,7 +584,15 @@ impl Machine<'_> {
                     cl.icu.result_t_signal(p, stage(depth - 1), t);
                 }
             } else {
-                cl.icu.stage_signals(p, &cs.stages, t);
+                // Every stage (t is shown in the result stage only: `for_each_stage` gives
+                // it there alone). Walked here, not in a method of the ICU's walking the
+                // stages itself: that cost the fill some 15 % more instructions (callgrind).
+                let mut stages = cs.stages.iter();
+                cl.icu.for_each_stage(|valid, ray, patch, v| {
+                    let ss = stages.next().map_or("", String::as_str);
+                    Icu::stage_job_signals(p, ss, valid, ray, patch);
+                    Icu::stage_t_signal(p, ss, v, t);
+                });
             }
         }
     }

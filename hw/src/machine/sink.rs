@@ -1,7 +1,7 @@
 //! What the machine's waveform walk (probe.rs) reports each signal to: the [`Sink`] trait,
 //! implemented by the layout's collector and the value fillers, and called by every unit
 //! and link that draws its signals — each unit names its own in its file (`Ctu::signals`,
-//! `Icu::stage_signals`, `Memory::signals`, …, each with the count it emits beside it; links
+//! `Icu::stage_job_signals`, `Memory::signals`, …, each with the count it emits beside it; links
 //! through links.rs' `probe_link`), without knowing the probe. [`Count`] counts what an
 //! emitter reports (the units' tests check their counts with it).
 

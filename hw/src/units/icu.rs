@@ -105,8 +105,10 @@ pub struct Icu {
 impl Icu {
     /// The ICU's own waveform signals: [`Icu::signals`] reports exactly these.
     pub const SIGNALS: usize = 1;
-    /// A stage's waveform signals (valid, ray, patch, t): [`Icu::stage_signals`] reports
-    /// this many per stage.
+    /// A stage's waveform signals (valid, ray, patch, t): [`Icu::stage_job_signals`] and
+    /// [`Icu::stage_t_signal`] report them, the waveform's walk calling them for each stage
+    /// with [`Icu::for_each_stage`]'s values (a new stage signal: a line in one of them,
+    /// counted here).
     pub const STAGE_SIGNALS: usize = 4;
     /// The first of them that move on to the next stage as the pipeline advances (valid,
     /// ray, patch; t is shown in the result stage only, zero before it).
@@ -119,38 +121,30 @@ impl Icu {
         s.bits(scope, "jobs_in", 32, self.stats.jobs_in);
     }
 
-    /// Reports every stage's signals to `s`, stage k under `scopes[k]`, its t in the format
-    /// `t` = (bits, fractional bits) (a new stage signal: a line in
-    /// [`Icu::stage_job_signals`] or here, counted in [`Icu::STAGE_SIGNALS`]).
-    #[inline(always)]
-    pub(crate) fn stage_signals(&self, s: &mut impl Sink, scopes: &[String], t: (u32, u32)) {
-        let mut scopes = scopes.iter();
-        // t is shown in the result stage only (`for_each_stage` gives it there alone).
-        self.for_each_stage(|valid, ray, patch, v| {
-            let ss = scopes.next().map_or("", String::as_str);
-            Self::stage_job_signals(s, ss, valid, ray, patch);
-            match v {
-                Some(v) => s.fixed(ss, "t", t.0, t.1, v),
-                None => s.fixed_zero(ss, "t", t.0, t.1),
-            }
-        });
-    }
-
-    /// Stage 0's signals, as [`Icu::stage_signals`] reports them (an advanced pipeline whose
-    /// later stages the sink moves itself).
+    /// Stage 0's signals (an advanced pipeline whose later stages the sink moves itself).
     #[inline(always)]
     pub(crate) fn first_stage_signals(&self, s: &mut impl Sink, scope: &str, t: (u32, u32)) {
         let job = self.stage_job(0).map(|(j, _)| j);
         let (ray, patch) = job.map_or((0, 0), |j| (j.ray as u64, j.patch as u64));
         Self::stage_job_signals(s, scope, job.is_some() as u64, ray, patch);
-        s.fixed_zero(scope, "t", t.0, t.1);
+        Self::stage_t_signal(s, scope, None, t);
     }
 
-    /// The result stage's t, as [`Icu::stage_signals`] reports it.
+    /// The result stage's t.
     #[inline(always)]
     pub(crate) fn result_t_signal(&self, s: &mut impl Sink, scope: &str, t: (u32, u32)) {
         let v = self.stage_job(self.depth() - 1).and_then(|(_, t)| t);
-        s.fixed(scope, "t", t.0, t.1, v.unwrap_or(0));
+        Self::stage_t_signal(s, scope, Some(v.unwrap_or(0)), t);
+    }
+
+    /// A stage's t in the format `t` = (bits, fractional bits): `v` in the result stage,
+    /// `None` before it (always zero: a sink may leave it as it is).
+    #[inline(always)]
+    pub(crate) fn stage_t_signal(s: &mut impl Sink, scope: &str, v: Option<i64>, t: (u32, u32)) {
+        match v {
+            Some(v) => s.fixed(scope, "t", t.0, t.1, v),
+            None => s.fixed_zero(scope, "t", t.0, t.1),
+        }
     }
 
     /// A stage's moving signals ([`Icu::STAGE_MOVING`]): valid, ray, patch (its t follows).
@@ -692,10 +686,12 @@ mod tests {
     fn the_icu_reports_its_signal_counts() {
         use crate::machine::sink::Count;
         let icu = Icu::new(3);
-        let scopes = vec![String::new(); icu.depth()];
         let [mut a, mut b, mut c, mut d] = <[Count; 4]>::default();
         icu.signals(&mut a, "");
-        icu.stage_signals(&mut b, &scopes, (16, 8));
+        icu.for_each_stage(|valid, ray, patch, v| {
+            Icu::stage_job_signals(&mut b, "", valid, ray, patch);
+            Icu::stage_t_signal(&mut b, "", v, (16, 8));
+        });
         Icu::stage_job_signals(&mut c, "", 0, 0, 0);
         icu.first_stage_signals(&mut d, "", (16, 8));
         assert_eq!(a.0, Icu::SIGNALS);
