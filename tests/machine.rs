@@ -672,9 +672,10 @@ fn stages_are_the_icus_own(shifts: bool) {
         ..StageProbe::default()
     };
     let (mut held, mut cycles) = (0u64, 0u64);
+    let mut sampler = shellsim_hw::machine::Sampler::default();
     loop {
         m.tick(TickOrder::Forward);
-        m.probe(&mut p);
+        sampler.sample(&m, &mut p);
         assert_eq!(p.stages.len(), m.clusters.len());
         let t_mask = (1u64 << p.t_width) - 1;
         for (c, stages) in p.stages.iter().enumerate() {

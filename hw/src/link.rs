@@ -24,6 +24,7 @@
 //! Because every read sees committed state and every write is staged, the order in which
 //! producer and consumer are ticked within a cycle cannot change any result.
 
+use crate::machine::sink::Sink;
 use std::cell::Cell;
 use std::rc::Rc;
 
@@ -360,6 +361,18 @@ impl<T: Clone> Link<T> {
         self.staged_take_back = 0;
     }
 
+    /// Signals a link shows in the waveform: [`Link::signals`] reports exactly these.
+    pub const SIGNALS: usize = 4;
+
+    /// Reports the link's registered valid, ready, occupancy and transfer count to `s` under
+    /// `scope` ([`Link::SIGNALS`] of them). A link's waveform signals: add one here.
+    pub(crate) fn signals(&self, s: &mut impl Sink, scope: &str) {
+        s.bits(scope, "valid", 1, self.valid() as u64);
+        s.bits(scope, "ready", 1, self.ready() as u64);
+        s.bits(scope, "occupancy", 16, self.len() as u64);
+        s.bits(scope, "transfers", 32, self.transfers);
+    }
+
     /// True when the registered state (valid, ready, occupancy, transfers) may have changed
     /// since the last call — a touched edge happened — and clears it: the waveform's walk
     /// reads a link's signals only then. Registered state changes only at a touched edge.
@@ -683,5 +696,12 @@ mod tests {
         c.push(P, 3);
         c.log_touches(&w, 63);
         assert_eq!(w.take(), 1 << 63);
+    }
+
+    #[test]
+    fn a_link_reports_its_signal_count() {
+        let mut c = crate::machine::sink::Count::default();
+        Link::<u32>::new(2).signals(&mut c, "");
+        assert_eq!(c.0, Link::<u32>::SIGNALS);
     }
 }

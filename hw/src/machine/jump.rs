@@ -5,11 +5,12 @@ use super::Machine;
 
 impl Machine<'_> {
     /// The cycle the clock may jump to from `now`: every link empty, every ICU empty, every
-    /// CTU quiet, and a timer ahead. `None` when something can act at `now`.
-    pub(super) fn quiet_until(&self, now: u64) -> Option<u64> {
+    /// CTU quiet, and a timer ahead. `None` when something can act at `now`. `busy`: the
+    /// run's hint of a busy cluster ([`Machine::some_cluster_busy`]).
+    pub(super) fn quiet_until(&self, now: u64, busy: &mut usize) -> Option<u64> {
         // The cheapest test that fails while the machine works comes first, and each test
         // runs only when the ones before it passed (all of them are pure reads).
-        if self.some_cluster_busy() || !self.links.all_empty() {
+        if self.some_cluster_busy(busy) || !self.links.all_empty() {
             return None;
         }
         let balancer_acts = self.cfg.balance.enabled

@@ -14,7 +14,7 @@
 //! The two buffers' stores (the ray buffer's queue, the patch buffer's store) are the units'
 //! own state, not links of this table; `Cluster::commit` clocks them.
 
-use super::sink::{Sink, LINK_SIGNALS};
+use super::sink::Sink;
 use crate::config::MachineTable;
 use crate::link::{Link, TouchWord, UnitId};
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, RemoteResult, SplitOrder, WorkItem};
@@ -64,8 +64,6 @@ macro_rules! links {
             k: usize,
             /// Waveform scope of each link, per family (built once).
             scopes: Scopes,
-            /// Per family, whether the waveform shows each link (`Links::show_only`).
-            shown: Shown,
             /// Each family's touch words: its link i raises bit i % 64 of word i / 64.
             touch: Touch,
         }
@@ -81,9 +79,18 @@ macro_rules! links {
             $( $name: Vec<String>, )*
         }
 
+        /// Per family, whether a waveform shows each link ([`Links::shown`]): the
+        /// sampler's, not the model's.
         #[derive(Clone, Debug, Default)]
-        struct Shown {
+        pub(super) struct LinkShown {
             $( $name: Vec<bool>, )*
+        }
+
+        impl LinkShown {
+            /// True when the waveform shows every link.
+            pub(super) fn all(&self) -> bool {
+                true $( && self.$name.iter().all(|&x| x) )*
+            }
         }
 
         impl Links {
@@ -98,7 +105,6 @@ macro_rules! links {
                     }
                 };
                 let mut scopes = Scopes::default();
-                let mut shown = Shown::default();
                 let mut touch = Touch::default();
                 $(
                     let cap: fn(&MachineTable) -> usize = $cap;
@@ -107,7 +113,6 @@ macro_rules! links {
                     let scope: fn(usize, usize) -> String = $scope;
                     let at = ends(Shape::$shape);
                     scopes.$name = at.iter().map(|&(c, j)| scope(c, j)).collect();
-                    shown.$name = vec![true; at.len()];
                     let mut $name: Vec<Link<$t>> = at
                         .iter()
                         .map(|&(c, j)| Link::new(cap(m)).wired(from(c, j), to(c, j)))
@@ -117,19 +122,15 @@ macro_rules! links {
                         l.log_touches(&touch.$name[i / 64], (i % 64) as u32);
                     }
                 )*
-                Links { $( $name, )* k, scopes, shown, touch }
+                Links { $( $name, )* k, scopes, touch }
             }
 
-            /// True when the waveform shows every link.
-            pub(super) fn all_shown(&self) -> bool {
-                true $( && self.shown.$name.iter().all(|&x| x) )*
-            }
-
-            /// The waveform shows only the links whose scope `wants` (all, until called).
-            pub(super) fn show_only(&mut self, wants: &dyn Fn(&str) -> bool) {
-                $(
-                    self.shown.$name = self.scopes.$name.iter().map(|s| wants(s)).collect();
-                )*
+            /// Which links a waveform that `wants` some scopes shows: those whose scope
+            /// it wants.
+            pub(super) fn shown(&self, wants: &dyn Fn(&str) -> bool) -> LinkShown {
+                LinkShown {
+                    $( $name: self.scopes.$name.iter().map(|s| wants(s)).collect(), )*
+                }
             }
 
             /// The clock edge of every link: those touched this cycle commit, the others
@@ -143,16 +144,22 @@ macro_rules! links {
                 true $( && self.$name.iter().all(Link::is_empty) )*
             }
 
-            /// Reports the links of `section` to `p`, family by family in table order.
+            /// Reports the links of `section` to `p`, family by family in table order (when
+            /// `FILTERED`, those `shown` only).
             #[inline(always)]
-            pub(super) fn probe<S: Sink, const FILTERED: bool>(&self, p: &mut S, section: Section) {
+            pub(super) fn probe<S: Sink, const FILTERED: bool>(
+                &self,
+                p: &mut S,
+                section: Section,
+                shown: &LinkShown,
+            ) {
                 $(
                     let want: Section = $section;
                     let shape = Shape::$shape;
                     match (want, section) {
                         (Section::Arbiter, Section::Arbiter) => {
                             for (i, (l, s)) in self.$name.iter().zip(&self.scopes.$name).enumerate() {
-                                if !FILTERED || self.shown.$name[i] {
+                                if !FILTERED || shown.$name[i] {
                                     probe_link(p, s, l);
                                 }
                             }
@@ -160,14 +167,14 @@ macro_rules! links {
                         (Section::Balance(_), Section::Balance(c))
                         | (Section::BundleCluster(_), Section::BundleCluster(c)) => {
                             let i = self.index(shape, c, 0);
-                            if !FILTERED || self.shown.$name[i] {
+                            if !FILTERED || shown.$name[i] {
                                 probe_link(p, &self.scopes.$name[i], &self.$name[i]);
                             }
                         }
                         (Section::Ctu(..), Section::Ctu(c, j))
                         | (Section::BundleCtu(..), Section::BundleCtu(c, j)) => {
                             let i = self.index(shape, c, j);
-                            if !FILTERED || self.shown.$name[i] {
+                            if !FILTERED || shown.$name[i] {
                                 probe_link(p, &self.scopes.$name[i], &self.$name[i]);
                             }
                         }
@@ -287,13 +294,9 @@ fn commit_family<T: Clone>(family: &mut [Link<T>], words: &[TouchWord]) {
 /// Reports a link's registered valid, ready, occupancy and transfer count (a filler skips
 /// them when no edge touched the link since the last sample).
 pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>) {
-    if p.skip_unchanged(l.take_changed(), LINK_SIGNALS) {
-        return;
+    if !p.skip_unchanged(l.take_changed(), Link::<T>::SIGNALS) {
+        l.signals(p, scope);
     }
-    p.bits(scope, "valid", 1, l.valid() as u64);
-    p.bits(scope, "ready", 1, l.ready() as u64);
-    p.bits(scope, "occupancy", 16, l.len() as u64);
-    p.bits(scope, "transfers", 32, l.transfers);
 }
 
 #[cfg(test)]

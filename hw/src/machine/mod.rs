@@ -14,11 +14,12 @@
 mod jump;
 pub mod links;
 mod probe;
-mod sink;
+pub(crate) mod sink;
 mod tick;
 mod watchdog;
 
 pub use links::Links;
+pub use probe::Sampler;
 pub use watchdog::Deadlock;
 
 use crate::config::{DescriptorOrder, JobSource, MachineConfig};
@@ -35,7 +36,6 @@ use crate::units::memory::Memory;
 use crate::units::patch_buffer::PatchBuffer;
 use crate::units::ray_buffer::RayBuffer;
 use crate::units::ray_pool::RayList;
-use std::cell::Cell;
 
 /// The order units are ticked in within a cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,18 +70,8 @@ pub struct Machine<'a> {
     /// This cycle's tick order: `order` copied and permuted in place (no allocation per
     /// cycle; its capacity is `order.len()`).
     scratch: Vec<UnitId>,
-    /// Scope names for probes, built on the first probe.
-    scopes: Option<probe::Scopes>,
-    /// The probe's value array, one per signal (allocated with the layout, reused).
-    probe_values: Vec<u64>,
-    /// The positions of the last sample's changed values, ascending (listed by the walk as it
-    /// puts them; allocated with the layout, reused).
-    probe_changes: Vec<u32>,
     /// Cycles the clock jumped over (not in the statistics, which must not depend on it).
     pub skipped_cycles: u64,
-    /// A cluster that held work (its ICU or a buffer not empty) at the last look: the run
-    /// loop's end and jump tests look at it first, as it most likely still does.
-    busy: Cell<usize>,
     progress: u64,
     last_progress_cycle: u64,
 }
@@ -204,11 +194,7 @@ impl<'a> Machine<'a> {
             cycle: 0,
             scratch: Vec::with_capacity(order.len()),
             order,
-            scopes: None,
-            probe_values: Vec::new(),
-            probe_changes: Vec::new(),
             skipped_cycles: 0,
-            busy: Cell::new(0),
             progress: 0,
             last_progress_cycle: 0,
         }
@@ -251,19 +237,16 @@ impl<'a> Machine<'a> {
     }
 
     /// True when some cluster's ICU or buffers hold work (then the machine is neither done
-    /// nor quiet). Looks at the last busy cluster first; a pure read but for that hint.
+    /// nor quiet). Looks first at cluster `busy`, the run's hint (the last cluster found
+    /// busy: a working machine most likely still has work there), and updates it.
     #[inline]
-    fn some_cluster_busy(&self) -> bool {
-        if self
-            .clusters
-            .get(self.busy.get())
-            .is_some_and(|c| !c.is_empty())
-        {
+    fn some_cluster_busy(&self, busy: &mut usize) -> bool {
+        if self.clusters.get(*busy).is_some_and(|c| !c.is_empty()) {
             return true;
         }
         match self.clusters.iter().position(|c| !c.is_empty()) {
             Some(c) => {
-                self.busy.set(c);
+                *busy = c;
                 true
             }
             None => false,
@@ -272,7 +255,13 @@ impl<'a> Machine<'a> {
 
     /// True when every sector is finished and nothing is in flight.
     pub fn done(&self) -> bool {
-        !self.some_cluster_busy()
+        self.done_from(&mut 0)
+    }
+
+    /// [`Machine::done`], looking first at cluster `busy` ([`Machine::some_cluster_busy`]).
+    #[inline]
+    fn done_from(&self, busy: &mut usize) -> bool {
+        !self.some_cluster_busy(busy)
             && self.clusters.iter().all(Cluster::drained)
             && self.memory.inflight() == 0
             && self.links.all_empty()
@@ -297,6 +286,10 @@ impl<'a> Machine<'a> {
             Some(_) => self.cycle + REPORT_CYCLES,
             None => u64::MAX,
         };
+        // What the run keeps to look at the machine (the model keeps none of it): the
+        // waveform's sampler and the cluster last found busy.
+        let mut sampler = Sampler::default();
+        let mut busy = 0;
         loop {
             self.tick(order);
             if self.cycle >= next_report {
@@ -306,13 +299,13 @@ impl<'a> Machine<'a> {
                 next_report = self.cycle + REPORT_CYCLES;
             }
             if let Some(p) = probe.as_deref_mut() {
-                self.probe(p);
+                sampler.sample(self, p);
                 if p.stop() {
                     self.cycle += 1;
                     return Ok(());
                 }
             }
-            if self.done() {
+            if self.done_from(&mut busy) {
                 self.cycle += 1;
                 return Ok(());
             }
@@ -329,7 +322,7 @@ impl<'a> Machine<'a> {
             }
             self.cycle += 1;
             if self.cfg.machine.cycle_jump {
-                if let Some(t) = self.quiet_until(self.cycle) {
+                if let Some(t) = self.quiet_until(self.cycle, &mut busy) {
                     let n = t - self.cycle;
                     self.skip(n);
                     self.cycle = t;

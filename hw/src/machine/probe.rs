@@ -11,14 +11,17 @@
 //! edge touched, a stage's t before the result stage (always zero). For a probe that
 //! [`Probe::shifts_stages`], an advanced ICU's later stages are not moved in the array: one
 //! [`StageShift`] entry in the list stands for them, and the probe moves its own copy.
+//!
+//! The run owns a [`Sampler`] that keeps all of this — the scopes, the arrays and what each
+//! unit showed at the last sample (quiet or not, an ICU's ring position, a CTU's active
+//! cycles) — so looking at the machine changes nothing in it.
 
-use std::cell::Cell;
-
-use super::links::{probe_link, Section};
+use super::links::{probe_link, LinkShown, Section};
 use super::sink::{Shift, Sink, Stages};
 use super::Machine;
 use crate::trace::{Probe, SignalDecl, SignalKind, StageShift};
-use crate::units::ctu::CtuState;
+use crate::units::ctu::Ctu;
+use crate::units::icu::Icu;
 
 /// The low `width` bits.
 fn mask(width: u32) -> u64 {
@@ -59,37 +62,124 @@ impl Sink for Declare {
     }
 }
 
-/// Values a [`Fill`] holds: layouts up to this size (the paper's machine has 435 signals,
-/// 16 clusters about 1,700) are filled without a bound check per value; larger ones through
-/// [`FillChecked`].
+/// Values [`Fixed`] arrays hold: layouts up to this size (the paper's machine has 435
+/// signals, 16 clusters about 1,700) are filled without a bound check per value; larger
+/// ones through [`Checked`] slices.
 const FILL_CAP: usize = 1 << 12;
 
 /// A stage's signals that [`Sink::shift_stages`] can move on (an ICU moves 3): a filler
 /// keeps this many of stage 0's values to hand to stage 1.
 const CARRY: usize = 4;
 
-/// Positions a [`Fill`]'s change list holds: every position of 16 bits, so the list's end,
+/// Positions [`Fixed`] arrays' change list holds: every position of 16 bits, so the list's end,
 /// taken as 16 bits, needs no bound check nor mask (one zero-extension where a wrap at
 /// [`FILL_CAP`] takes a copy and a mask); it never passes `FILL_CAP`. Only the list's first
 /// positions are ever written (a fresh allocation's pages are mapped when first touched).
 const LIST_CAP: usize = 1 << 16;
 
-/// Fills the value array in signal order, over the last sample's values, and lists the
-/// positions it changes as it goes. The position wraps at the array's size and the list's
-/// end at the list's ([`LIST_CAP`]), so no put can panic (the compiler then keeps them in
-/// registers over a run of puts and drops the bound checks); `Machine::probe` checks once
-/// per sample that the walk filled exactly the layout, which is never larger than the array.
-struct Fill<'a> {
+/// Where a [`Fill`] keeps the value array and the change list: [`Fixed`] arrays, whose
+/// puts need no bound check, or [`Checked`] slices of any size. The one filler is written
+/// once over this and compiled for each.
+trait Arrays {
+    /// The arrays always hold a whole earlier sample ([`Fixed`] ones serve only after the
+    /// first), so no skip tests for it.
+    const FILLED: bool;
+    /// Sets position `at` to `v`, lists it at `*listed` when that changed it, and returns
+    /// the value it held.
+    fn set(&mut self, listed: &mut usize, at: usize, v: u64) -> u64;
+    /// The value at position `at`.
+    fn get(&self, at: usize) -> u64;
+    /// Lists the entry `code` (a [`StageShift`]) at `*listed`, whatever the values.
+    fn list(&mut self, listed: &mut usize, code: u32);
+}
+
+/// Arrays of a fixed size: the position wraps at the array's size and the list's end at the
+/// list's ([`LIST_CAP`]), so no put can panic (the compiler then keeps them in registers
+/// over a run of puts and drops the bound checks); `Machine::probe` checks once per sample
+/// that the walk filled exactly the layout, which is never larger than the array.
+struct Fixed<'a> {
     values: &'a mut [u64; FILL_CAP],
-    pos: usize,
-    /// Positions listed in `changes` so far.
-    listed: usize,
-    /// This sample's changed positions, ascending, the first `listed` (past them: scratch).
     changes: &'a mut [u32; LIST_CAP],
-    /// Per unit of [`quiet_units`]: it was quiet at the last sample.
-    quiet: &'a [Cell<bool>],
-    /// Per cluster: its ICU's ring position at the last sample.
-    ring: &'a [Cell<usize>],
+}
+
+impl Arrays for Fixed<'_> {
+    const FILLED: bool = true;
+
+    /// No branch: the position is always stored at the list's end, the end moved on only
+    /// for a change.
+    #[inline(always)]
+    fn set(&mut self, listed: &mut usize, at: usize, v: u64) -> u64 {
+        let i = at % FILL_CAP;
+        let old = std::mem::replace(&mut self.values[i], v);
+        self.changes[*listed as u16 as usize] = i as u32;
+        *listed += (old != v) as usize;
+        old
+    }
+
+    #[inline(always)]
+    fn get(&self, at: usize) -> u64 {
+        self.values[at % FILL_CAP]
+    }
+
+    #[inline(always)]
+    fn list(&mut self, listed: &mut usize, code: u32) {
+        self.changes[*listed as u16 as usize] = code;
+        *listed += 1;
+    }
+}
+
+/// Slices of any size (a layout past [`FILL_CAP`], and every layout's first sample): a
+/// bound check per value, nothing set (zero returned or read) past the array.
+struct Checked<'a> {
+    values: &'a mut [u64],
+    /// At least as long as `values` (a shift stands for more positions than it takes).
+    changes: &'a mut [u32],
+}
+
+impl Arrays for Checked<'_> {
+    const FILLED: bool = false;
+
+    #[inline(always)]
+    fn set(&mut self, listed: &mut usize, at: usize, v: u64) -> u64 {
+        let Some(x) = self.values.get_mut(at) else {
+            return 0;
+        };
+        let old = std::mem::replace(x, v);
+        if let Some(c) = self.changes.get_mut(*listed) {
+            *c = at as u32;
+            *listed += (old != v) as usize;
+        }
+        old
+    }
+
+    #[inline(always)]
+    fn get(&self, at: usize) -> u64 {
+        self.values.get(at).copied().unwrap_or(0)
+    }
+
+    #[inline(always)]
+    fn list(&mut self, listed: &mut usize, code: u32) {
+        if let Some(c) = self.changes.get_mut(*listed) {
+            *c = code;
+            *listed += 1;
+        }
+    }
+}
+
+/// Fills the value array in signal order, over the last sample's values, and lists the
+/// positions it changes as it goes (the [`Sink`] of every sample: every kind of signal is
+/// one value put in order).
+struct Fill<'a, A> {
+    arrays: A,
+    pos: usize,
+    /// Positions listed in the change list so far (this sample's changed positions,
+    /// ascending; past them: scratch).
+    listed: usize,
+    /// What the units showed at the last sample, updated as the walk goes.
+    last: Last<'a>,
+    /// The arrays hold a whole earlier sample (unchanged units may be skipped); always,
+    /// for [`Arrays::FILLED`] ones.
+    filled_before: bool,
     /// Stage 0's moving values at the last sample, kept by [`Sink::shift_stages`] for
     /// [`Sink::move_stages`] (unless it listed a [`StageShift`]: `shifted`).
     carry: [u64; CARRY],
@@ -99,30 +189,38 @@ struct Fill<'a> {
     shifted: bool,
 }
 
-impl Fill<'_> {
-    /// Sets position `at` to `v`, lists it when that changed it (no branch: the position is
-    /// always stored at the list's end, the end moved on only for a change) and returns the
-    /// value it held.
+impl<'a, A: Arrays> Fill<'a, A> {
+    /// A filler over `arrays`, at the start of a sample.
+    fn new(arrays: A, last: Last<'a>, filled_before: bool, shifts: bool) -> Self {
+        Fill {
+            arrays,
+            pos: 0,
+            listed: 0,
+            last,
+            filled_before,
+            carry: [0; CARRY],
+            shifts,
+            shifted: false,
+        }
+    }
+
+    /// Sets position `at` to `v` (listing it when that changed it) and returns the value it
+    /// held.
     #[inline(always)]
     fn set(&mut self, at: usize, v: u64) -> u64 {
-        let i = at % FILL_CAP;
-        let old = std::mem::replace(&mut self.values[i], v);
-        self.changes[self.listed as u16 as usize] = i as u32;
-        self.listed += (old != v) as usize;
-        old
+        self.arrays.set(&mut self.listed, at, v)
     }
 
     /// The value at position `at`.
     #[inline(always)]
     fn get(&self, at: usize) -> u64 {
-        self.values[at % FILL_CAP]
+        self.arrays.get(at)
     }
 
-    /// True: a [`Fill`] fills over a whole earlier sample only (the first goes through
-    /// [`FillChecked`]), so no skip tests for it.
+    /// The arrays hold a whole earlier sample.
     #[inline(always)]
     fn filled_before(&self) -> bool {
-        true
+        A::FILLED || self.filled_before
     }
 
     /// Puts `v` at the next position, listing it when it changed the value there.
@@ -131,277 +229,256 @@ impl Fill<'_> {
         self.set(self.pos, v);
         self.pos += 1;
     }
-
-    /// Lists the entry `code` (a [`StageShift`]) whatever the values.
-    #[inline(always)]
-    fn list(&mut self, code: u32) {
-        self.changes[self.listed as u16 as usize] = code;
-        self.listed += 1;
-    }
 }
 
-/// Fills a value array of any size (a layout past [`FILL_CAP`], and every layout's first
-/// sample) as [`Fill`] does, a bound check per value.
-struct FillChecked<'a> {
-    values: &'a mut [u64],
-    pos: usize,
-    listed: usize,
-    /// At least as long as `values`.
-    changes: &'a mut [u32],
-    quiet: &'a [Cell<bool>],
-    ring: &'a [Cell<usize>],
-    filled_before: bool,
-    carry: [u64; CARRY],
-    shifts: bool,
-    shifted: bool,
-}
-
-impl FillChecked<'_> {
-    /// [`Fill::set`], nothing set (zero returned) past the array.
+impl<A: Arrays> Sink for Fill<'_, A> {
     #[inline(always)]
-    fn set(&mut self, at: usize, v: u64) -> u64 {
-        let Some(x) = self.values.get_mut(at) else {
-            return 0;
-        };
-        let old = std::mem::replace(x, v);
-        if let Some(c) = self.changes.get_mut(self.listed) {
-            *c = at as u32;
-            self.listed += (old != v) as usize;
-        }
-        old
+    fn bits(&mut self, _: &str, _: &'static str, width: u32, value: u64) {
+        self.put(value & mask(width));
     }
-
-    /// [`Fill::get`], zero past the array.
     #[inline(always)]
-    fn get(&self, at: usize) -> u64 {
-        self.values.get(at).copied().unwrap_or(0)
+    fn text(&mut self, _: &str, _: &'static str, _: &'static [&'static str], index: u64) {
+        self.put(index);
     }
-
-    /// The array holds a whole earlier sample (unchanged links may be skipped).
     #[inline(always)]
-    fn filled_before(&self) -> bool {
-        self.filled_before
+    fn fixed(&mut self, _: &str, _: &'static str, width: u32, _: u32, raw: i64) {
+        self.put(raw as u64 & mask(width));
     }
-
-    /// [`Fill::put`].
     #[inline(always)]
-    fn put(&mut self, v: u64) {
-        self.set(self.pos, v);
+    fn fixed_zero(&mut self, _: &str, _: &'static str, _: u32, _: u32) {
         self.pos += 1;
     }
-
-    /// [`Fill::list`] (the list is as long as the array: a shift stands for more positions
-    /// than it takes).
     #[inline(always)]
-    fn list(&mut self, code: u32) {
-        if let Some(c) = self.changes.get_mut(self.listed) {
-            *c = code;
-            self.listed += 1;
+    fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
+        let Some(was) = self.last.quiet.get_mut(u) else {
+            return false;
+        };
+        let skip = std::mem::replace(was, quiet) && quiet;
+        if skip {
+            self.pos += n;
         }
+        skip
+    }
+    #[inline(always)]
+    fn shift_stages(&mut self, stages: Stages) -> Shift {
+        let Stages {
+            cluster: c,
+            position,
+            stride,
+            width,
+            signals: n,
+        } = stages;
+        let Some(at) = self.last.ring.get_mut(c) else {
+            return Shift::Walk;
+        };
+        let moved = std::mem::replace(at, position) != position;
+        let fits = stride > 0 && width <= CARRY.min(stride) && n >= 2 * stride;
+        if !self.filled_before() || !fits {
+            return Shift::Walk;
+        }
+        if !moved {
+            self.pos += n;
+            return Shift::Held;
+        }
+        // The probe moves them itself: one entry, ahead of stage 0's changes.
+        let shift = StageShift {
+            at: self.pos + stride,
+            stride,
+            width,
+            later: n / stride - 1,
+        };
+        self.shifted = false;
+        if let (true, Some(code)) = (self.shifts, shift.encode()) {
+            self.arrays.list(&mut self.listed, code);
+            self.shifted = true;
+            return Shift::Moved;
+        }
+        for j in 0..width {
+            self.carry[j] = self.get(self.pos + j);
+        }
+        Shift::Moved
+    }
+    #[inline(always)]
+    fn move_stages(&mut self, stages: Stages) {
+        let Stages {
+            stride,
+            width,
+            signals: n,
+            ..
+        } = stages;
+        // Stage k takes stage k − 1's value as it was, its own carried on to k + 1. Two
+        // stages a round, the second taking the first's values where they were read
+        // (carried from stage to stage, they would be copied between registers).
+        let later = n / stride - 1;
+        if self.shifted {
+            self.pos += (later - 1) * stride + width;
+            return;
+        }
+        let mut carry = self.carry;
+        let mut at = self.pos;
+        for _ in 0..later / 2 {
+            let mut mid = [0; CARRY];
+            for (j, (m, c)) in mid.iter_mut().zip(&carry).enumerate().take(width) {
+                *m = self.set(at + j, *c);
+            }
+            for (j, (c, m)) in carry.iter_mut().zip(&mid).enumerate().take(width) {
+                *c = self.set(at + stride + j, *m);
+            }
+            at += 2 * stride;
+        }
+        if later % 2 == 1 {
+            for (j, c) in carry.iter_mut().enumerate().take(width) {
+                *c = self.set(at + j, *c);
+            }
+            at += stride;
+        }
+        self.pos = at - stride + width;
+    }
+    #[inline(always)]
+    fn moved(&mut self, u: usize, count: u64) -> bool {
+        match self.last.counts.get_mut(u) {
+            Some(was) => std::mem::replace(was, count) != count,
+            None => true,
+        }
+    }
+    #[inline(always)]
+    fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
+        let skip = !changed && self.filled_before();
+        if skip {
+            self.pos += n;
+        }
+        skip
     }
 }
 
-/// The [`Sink`] of a filler: every kind of signal is one value put in order.
-macro_rules! fill_sink {
-    ($t:ident) => {
-        impl Sink for $t<'_> {
-            #[inline(always)]
-            fn bits(&mut self, _: &str, _: &'static str, width: u32, value: u64) {
-                self.put(value & mask(width));
-            }
-            #[inline(always)]
-            fn text(&mut self, _: &str, _: &'static str, _: &'static [&'static str], index: u64) {
-                self.put(index);
-            }
-            #[inline(always)]
-            fn fixed(&mut self, _: &str, _: &'static str, width: u32, _: u32, raw: i64) {
-                self.put(raw as u64 & mask(width));
-            }
-            #[inline(always)]
-            fn fixed_zero(&mut self, _: &str, _: &'static str, _: u32, _: u32) {
-                self.pos += 1;
-            }
-            #[inline(always)]
-            fn skip_quiet(&mut self, u: usize, quiet: bool, n: usize) -> bool {
-                let Some(was) = self.quiet.get(u) else {
-                    return false;
-                };
-                let skip = was.replace(quiet) && quiet;
-                if skip {
-                    self.pos += n;
-                }
-                skip
-            }
-            #[inline(always)]
-            fn shift_stages(&mut self, stages: Stages) -> Shift {
-                let Stages {
-                    cluster: c,
-                    position,
-                    stride,
-                    width,
-                    signals: n,
-                } = stages;
-                let Some(at) = self.ring.get(c) else {
-                    return Shift::Walk;
-                };
-                let moved = at.replace(position) != position;
-                let fits = stride > 0 && width <= CARRY.min(stride) && n >= 2 * stride;
-                if !self.filled_before() || !fits {
-                    return Shift::Walk;
-                }
-                if !moved {
-                    self.pos += n;
-                    return Shift::Held;
-                }
-                // The probe moves them itself: one entry, ahead of stage 0's changes.
-                let shift = StageShift {
-                    at: self.pos + stride,
-                    stride,
-                    width,
-                    later: n / stride - 1,
-                };
-                self.shifted = false;
-                if let (true, Some(code)) = (self.shifts, shift.encode()) {
-                    self.list(code);
-                    self.shifted = true;
-                    return Shift::Moved;
-                }
-                for j in 0..width {
-                    self.carry[j] = self.get(self.pos + j);
-                }
-                Shift::Moved
-            }
-            #[inline(always)]
-            fn move_stages(&mut self, stages: Stages) {
-                let Stages {
-                    stride,
-                    width,
-                    signals: n,
-                    ..
-                } = stages;
-                // Stage k takes stage k − 1's value as it was, its own carried on to k + 1.
-                // Two stages a round, the second taking the first's values where they were
-                // read (carried from stage to stage, they would be copied between registers).
-                let later = n / stride - 1;
-                if self.shifted {
-                    self.pos += (later - 1) * stride + width;
-                    return;
-                }
-                let mut carry = self.carry;
-                let mut at = self.pos;
-                for _ in 0..later / 2 {
-                    let mut mid = [0; CARRY];
-                    for (j, (m, c)) in mid.iter_mut().zip(&carry).enumerate().take(width) {
-                        *m = self.set(at + j, *c);
-                    }
-                    for (j, (c, m)) in carry.iter_mut().zip(&mid).enumerate().take(width) {
-                        *c = self.set(at + stride + j, *m);
-                    }
-                    at += 2 * stride;
-                }
-                if later % 2 == 1 {
-                    for (j, c) in carry.iter_mut().enumerate().take(width) {
-                        *c = self.set(at + j, *c);
-                    }
-                    at += stride;
-                }
-                self.pos = at - stride + width;
-            }
-            #[inline(always)]
-            fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
-                let skip = !changed && self.filled_before();
-                if skip {
-                    self.pos += n;
-                }
-                skip
-            }
-        }
-    };
+/// What the units showed at the last sample, as a filler reads and updates it.
+struct Last<'a> {
+    /// Per unit of [`quiet_units`]: it was quiet.
+    quiet: &'a mut [bool],
+    /// Per cluster: its ICU's ring position.
+    ring: &'a mut [usize],
+    /// Per CTU, cluster-major: its [`Ctu::active_cycles`] ([`Sink::moved`]).
+    counts: &'a mut [u64],
 }
-fill_sink!(Fill);
-fill_sink!(FillChecked);
 
-impl Machine<'_> {
-    /// Reports every unit's signals at the current cycle to `p`: the layout first (once per
-    /// machine), then the sample's values.
-    pub fn probe(&mut self, p: &mut dyn Probe) {
-        if self.scopes.is_none() {
-            // Units whose scopes the probe keeps none of are left out of the layout.
-            let wants = |s: &str| p.wants(s);
-            self.links.show_only(&wants);
-            let sc = Scopes::new(self, &wants);
-            let mut d = Declare(Vec::new());
-            self.walk(&sc, &mut d);
-            p.declare(&d.0);
-            let n = d.0.len();
-            self.probe_values = vec![0; n.max(FILL_CAP)];
-            self.probe_changes = vec![0; n.max(LIST_CAP)];
-            self.scopes = Some(Scopes {
-                signals: n,
-                quiet: vec![Cell::new(false); quiet_units(self)],
-                ring: self
-                    .clusters
-                    .iter()
-                    .map(|c| Cell::new(c.icu.ring_position()))
-                    .collect(),
-                filled: false,
-                ..sc
-            });
-        }
-        // The walk reads the scopes where they are, and the fillers update their state in
-        // them through cells; only the arrays are moved out.
-        let mut values = std::mem::take(&mut self.probe_values);
-        let mut changes = std::mem::take(&mut self.probe_changes);
-        let sc = self.scopes.as_ref().expect("built above");
-        let (n, filled_before) = (sc.signals, sc.filled);
+/// What a run keeps to sample the machine's waveform, none of it in the model: the scopes
+/// (built on the first sample), the value array and change list (allocated with the layout,
+/// reused), and what each unit showed at the last sample.
+#[derive(Debug, Default)]
+pub struct Sampler {
+    scopes: Option<Scopes>,
+    /// One value per signal (at least [`FILL_CAP`]).
+    values: Vec<u64>,
+    /// The last sample's changed positions, ascending (listed by the walk as it puts them;
+    /// at least [`LIST_CAP`]).
+    changes: Vec<u32>,
+    /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
+    signals: usize,
+    /// Per unit of [`quiet_units`]: it was quiet at the last sample.
+    quiet: Vec<bool>,
+    /// Per cluster: its ICU's ring position at the last sample.
+    ring: Vec<usize>,
+    /// Per CTU, cluster-major: its active cycles at the last sample.
+    counts: Vec<u64>,
+    /// The value array holds a whole sample (after the first fill).
+    filled: bool,
+}
+
+impl Sampler {
+    /// Reports every unit's signals of `m` at its current cycle to `p`: the layout first
+    /// (on the first sample), then the sample's values.
+    pub fn sample(&mut self, m: &Machine, p: &mut dyn Probe) {
+        let sc = match &self.scopes {
+            Some(sc) => sc,
+            None => {
+                // Units whose scopes the probe keeps none of are left out of the layout.
+                let wants = |s: &str| p.wants(s);
+                let sc = Scopes::new(m, &wants);
+                let mut d = Declare(Vec::new());
+                m.walk(&sc, &mut d);
+                p.declare(&d.0);
+                let n = d.0.len();
+                self.values = vec![0; n.max(FILL_CAP)];
+                self.changes = vec![0; n.max(LIST_CAP)];
+                self.signals = n;
+                self.quiet = vec![false; quiet_units(m)];
+                self.ring = m.clusters.iter().map(|c| c.icu.ring_position()).collect();
+                self.counts = vec![0; m.clusters.iter().map(|c| c.ctus.len()).sum()];
+                self.scopes.insert(sc)
+            }
+        };
+        let (n, filled_before) = (self.signals, self.filled);
         let shifts = p.shifts_stages();
+        let last = Last {
+            quiet: &mut self.quiet,
+            ring: &mut self.ring,
+            counts: &mut self.counts,
+        };
         let fixed = (
-            <&mut [u64; FILL_CAP]>::try_from(&mut values[..]),
-            <&mut [u32; LIST_CAP]>::try_from(&mut changes[..]),
+            <&mut [u64; FILL_CAP]>::try_from(&mut self.values[..]),
+            <&mut [u32; LIST_CAP]>::try_from(&mut self.changes[..]),
         );
         let (filled, changed) = match fixed {
             (Ok(values), Ok(changes)) if n <= FILL_CAP && filled_before => {
-                let mut f = Fill {
-                    values,
-                    pos: 0,
-                    listed: 0,
-                    changes,
-                    quiet: &sc.quiet,
-                    ring: &sc.ring,
-                    carry: [0; CARRY],
-                    shifts,
-                    shifted: false,
-                };
-                self.walk(sc, &mut f);
-                (f.pos, f.listed)
+                m.fill_fixed(sc, values, changes, last, shifts)
             }
-            _ => {
-                let mut f = FillChecked {
-                    values: &mut values,
-                    pos: 0,
-                    listed: 0,
-                    changes: &mut changes,
-                    quiet: &sc.quiet,
-                    ring: &sc.ring,
-                    filled_before,
-                    carry: [0; CARRY],
-                    shifts,
-                    shifted: false,
-                };
-                self.walk(sc, &mut f);
-                (f.pos, f.listed)
-            }
+            _ => m.fill_checked(
+                sc,
+                &mut self.values,
+                &mut self.changes,
+                last,
+                filled_before,
+                shifts,
+            ),
         };
         assert_eq!(filled, n, "the walk's layout never changes");
-        p.sample_changes(self.cycle, &values[..n], &changes[..changed]);
-        self.probe_values = values;
-        self.probe_changes = changes;
-        if let Some(sc) = &mut self.scopes {
-            sc.filled = true;
-        }
+        p.sample_changes(m.cycle, &self.values[..n], &self.changes[..changed]);
+        self.filled = true;
+    }
+}
+
+impl Machine<'_> {
+    /// Fills [`Fixed`] arrays over a whole earlier sample: the signals filled and the
+    /// changes listed. The arrays are arguments of their own, so the compiler knows that
+    /// no put changes what the walk reads (the machine holds cells), and the filler's
+    /// position and list end stay in registers over the walk (inlined here).
+    #[inline(never)]
+    fn fill_fixed(
+        &self,
+        sc: &Scopes,
+        values: &mut [u64; FILL_CAP],
+        changes: &mut [u32; LIST_CAP],
+        last: Last<'_>,
+        shifts: bool,
+    ) -> (usize, usize) {
+        let a = Fixed { values, changes };
+        self.fill(sc, Fill::new(a, last, true, shifts))
+    }
+
+    /// [`Machine::fill_fixed`] for [`Checked`] slices.
+    #[inline(never)]
+    fn fill_checked(
+        &self,
+        sc: &Scopes,
+        values: &mut [u64],
+        changes: &mut [u32],
+        last: Last<'_>,
+        filled_before: bool,
+        shifts: bool,
+    ) -> (usize, usize) {
+        let a = Checked { values, changes };
+        self.fill(sc, Fill::new(a, last, filled_before, shifts))
+    }
+
+    /// Walks `f` over every signal: the signals filled and the changes listed.
+    #[inline(always)]
+    fn fill<A: Arrays>(&self, sc: &Scopes, mut f: Fill<'_, A>) -> (usize, usize) {
+        self.walk(sc, &mut f);
+        (f.pos, f.listed)
     }
 
     /// Visits every signal in the waveform's order.
+    #[inline(always)]
     fn walk<S: Sink>(&self, sc: &Scopes, p: &mut S) {
         // Two copies: with every unit shown (the tests of `Scopes::shown` compiled out, as
         // no scope filter costs anything) and with some left out.
@@ -412,66 +489,35 @@ impl Machine<'_> {
         }
     }
 
-    /// [`Machine::walk`], testing which units are shown when `FILTERED`.
+    /// [`Machine::walk`], testing which units are shown when `FILTERED`. Each unit reports
+    /// its own signals (`signals` and the like in its file); this walk orders them, skips
+    /// what cannot have changed, and puts the links between them.
     #[inline(always)]
     fn walk_shown<S: Sink, const FILTERED: bool>(&self, sc: &Scopes, p: &mut S) {
         let now = self.cycle;
-        let t_frac = self.scene.formats.t.frac_bits;
-        let t_bits = self.scene.formats.t.bits();
+        let t = (self.scene.formats.t.bits(), self.scene.formats.t.frac_bits);
         let bundle = self.cfg.machine.job_source == crate::config::JobSource::Bundle;
+        let balance = self.cfg.balance.enabled;
         if !FILTERED || sc.shown.memory {
-            p.bits(
-                &sc.memory,
-                "port_busy",
-                1,
-                self.memory.port_busy(now) as u64,
-            );
-            p.bits(&sc.memory, "in_flight", 16, self.memory.inflight() as u64);
-            p.bits(&sc.memory, "grants", 32, self.memory.stats.grants);
+            self.memory.signals(p, &sc.memory, now);
         }
         if !FILTERED || sc.shown.arbiter {
-            p.bits(
-                &sc.arbiter,
-                "last_grant",
-                16,
-                self.memory.last_grant.min(0xFFFF) as u64,
-            );
+            self.memory.arbiter_signals(p, &sc.arbiter);
         }
-        self.links.probe::<S, FILTERED>(p, Section::Arbiter);
-        if self.cfg.balance.enabled && (!FILTERED || sc.shown.balancer) {
-            p.bits(
-                &sc.balancer,
-                "split_orders",
-                32,
-                self.balancer.stats.split_orders,
-            );
-            p.bits(
-                &sc.balancer,
-                "jobs_moved",
-                32,
-                self.balancer.stats.jobs_moved,
-            );
-            p.bits(&sc.balancer, "retries", 32, self.balancer.stats.retries);
+        self.links
+            .probe::<S, FILTERED>(p, Section::Arbiter, &sc.links);
+        if balance && (!FILTERED || sc.shown.balancer) {
+            self.balancer.signals(p, &sc.balancer);
         }
         // The scopes are looked up without an index (a filler uses none of them, and then
         // nothing is left of the lookups); `Scopes::new` made one per unit.
         for (c, (cl, cs)) in self.clusters.iter().zip(&sc.clusters).enumerate() {
-            if self.cfg.balance.enabled && (!FILTERED || cs.shown.balance) {
-                p.bits(
-                    &cs.balance,
-                    "work_request",
-                    1,
-                    self.balancer.requesting(c) as u64,
-                );
-                p.bits(
-                    &cs.balance,
-                    "jobs_inbound",
-                    16,
-                    self.balancer.inbound(c) as u64,
-                );
+            if balance && (!FILTERED || cs.shown.balance) {
+                self.balancer.cluster_signals(p, &cs.balance, c);
             }
-            if self.cfg.balance.enabled {
-                self.links.probe::<S, FILTERED>(p, Section::Balance(c));
+            if balance {
+                self.links
+                    .probe::<S, FILTERED>(p, Section::Balance(c), &sc.links);
             }
             if !FILTERED || cs.shown.patch_buffer {
                 probe_link(p, &cs.patch_buffer, &cl.patch_buffer.store);
@@ -480,107 +526,76 @@ impl Machine<'_> {
                 probe_link(p, &cs.ray_buffer, &cl.ray_buffer.queue);
             }
             if bundle && (!FILTERED || cs.shown.ray_buffer) {
-                let rb = &cl.ray_buffer;
-                let (patch, left) = rb.expanding().unwrap_or((0, 0));
-                p.bits(&cs.ray_buffer, "descriptors", 16, rb.descriptors() as u64);
-                p.bits(&cs.ray_buffer, "jobs_waiting", 32, rb.waiting() as u64);
-                p.bits(&cs.ray_buffer, "expanding_patch", 24, patch as u64);
-                p.bits(&cs.ray_buffer, "expanding_left", 32, left as u64);
-                p.bits(
-                    &cs.ray_buffer,
-                    "descriptors_in",
-                    32,
-                    rb.stats.descriptors_in,
-                );
-                p.bits(&cs.ray_buffer, "splits", 32, rb.stats.work_items_given);
-                if self.cfg.balance.enabled {
-                    p.bits(
-                        &cs.ray_buffer,
-                        "descriptors_inbound",
-                        16,
-                        self.balancer.inbound_descriptors(c) as u64,
-                    );
+                cl.ray_buffer.bundle_signals(p, &cs.ray_buffer);
+                if balance {
+                    self.balancer.ray_buffer_signals(p, &cs.ray_buffer, c);
                 }
             }
             if bundle {
                 self.links
-                    .probe::<S, FILTERED>(p, Section::BundleCluster(c));
+                    .probe::<S, FILTERED>(p, Section::BundleCluster(c), &sc.links);
             }
             for (j, (ctu, s)) in cl.ctus.iter().zip(&cs.ctus).enumerate() {
-                // A finished CTU never ticks again: its six signals are final; nor do they
+                // A finished CTU never ticks again: its signals are final; nor do they
                 // change in a cycle it did not tick actively.
                 let u = self.clusters.len() + c * cl.ctus.len() + j;
-                let ticked = ctu.take_ticked();
+                let ticked = p.moved(c * cl.ctus.len() + j, ctu.active_cycles());
                 let shown = !FILTERED || cs.shown.ctus.get(j).copied().unwrap_or(true);
-                if shown && !p.skip_quiet(u, ctu.is_finished(), 6) && !p.skip_unchanged(ticked, 6) {
-                    p.text(s, "state", CtuState::NAMES, ctu.state.index());
-                    p.bits(s, "shell", 16, ctu.shell() as u64);
-                    p.bits(s, "remaining_rays", 32, ctu.remaining() as u64);
-                    p.bits(s, "outstanding_jobs", 32, ctu.outstanding());
-                    p.bits(s, "pending_loads", 16, ctu.pending_loads() as u64);
-                    p.bits(s, "jobs_issued", 32, ctu.stats.jobs_issued);
+                if shown
+                    && !p.skip_quiet(u, ctu.is_finished(), Ctu::SIGNALS)
+                    && !p.skip_unchanged(ticked, Ctu::SIGNALS)
+                {
+                    ctu.signals(p, s);
                 }
-                self.links.probe::<S, FILTERED>(p, Section::Ctu(c, j));
+                self.links
+                    .probe::<S, FILTERED>(p, Section::Ctu(c, j), &sc.links);
                 if bundle {
                     if shown {
-                        p.bits(s, "descriptors", 32, ctu.stats.descriptors);
+                        ctu.bundle_signals(p, s);
                     }
-                    self.links.probe::<S, FILTERED>(p, Section::BundleCtu(c, j));
+                    self.links
+                        .probe::<S, FILTERED>(p, Section::BundleCtu(c, j), &sc.links);
                 }
             }
             if !FILTERED || cs.shown.icu {
-                p.bits(&cs.icu, "jobs_in", 32, cl.icu.stats.jobs_in);
+                cl.icu.signals(p, &cs.icu);
             }
             if FILTERED && !cs.shown.stages {
                 continue;
             }
-            // Four signals a stage (the count `skip_quiet` is told), all zero when empty; the
-            // first three (valid, ray, patch) move on a stage as the pipeline advances.
+            // Every stage's signals, all zero when empty; the first few move on a stage as
+            // the pipeline advances.
             let depth = cl.icu.depth();
             let stages = Stages {
                 cluster: c,
                 position: cl.icu.ring_position(),
-                stride: 4,
-                width: 3,
-                signals: 4 * depth,
+                stride: Icu::STAGE_SIGNALS,
+                width: Icu::STAGE_MOVING,
+                signals: Icu::STAGE_SIGNALS * depth,
             };
-            if p.skip_quiet(c, cl.icu.is_empty(), 4 * depth) {
+            if p.skip_quiet(c, cl.icu.is_empty(), stages.signals) {
                 // Empty now and at the last sample: all zero still.
             } else if let shift @ (Shift::Held | Shift::Moved) = p.shift_stages(stages) {
                 if shift == Shift::Moved {
                     // Stage 0's new job, the later stages moved, the result stage's t.
                     let stage = |k: usize| cs.stages.get(k).map_or("", String::as_str);
-                    let (first, last) = (stage(0), stage(depth - 1));
-                    let job = cl.icu.stage_job(0).map(|(j, _)| j);
-                    let (ray, patch) = job.map_or((0, 0), |j| (j.ray as u64, j.patch as u64));
-                    stage_job(p, first, job.is_some() as u64, ray, patch);
-                    p.fixed_zero(first, "t", t_bits, t_frac);
+                    cl.icu.first_stage_signals(p, stage(0), t);
                     p.move_stages(stages);
-                    let t = cl.icu.stage_job(depth - 1).and_then(|(_, t)| t);
-                    p.fixed(last, "t", t_bits, t_frac, t.unwrap_or(0));
+                    cl.icu.result_t_signal(p, stage(depth - 1), t);
                 }
             } else {
-                // t is shown in the result stage only (`for_each_stage` gives it there alone).
+                // Every stage (t is shown in the result stage only: `for_each_stage` gives
+                // it there alone). Walked here, not in a method of the ICU's walking the
+                // stages itself: that cost the fill some 15 % more instructions (callgrind).
                 let mut stages = cs.stages.iter();
-                cl.icu.for_each_stage(|valid, ray, patch, t| {
+                cl.icu.for_each_stage(|valid, ray, patch, v| {
                     let ss = stages.next().map_or("", String::as_str);
-                    stage_job(p, ss, valid, ray, patch);
-                    match t {
-                        Some(t) => p.fixed(ss, "t", t_bits, t_frac, t),
-                        None => p.fixed_zero(ss, "t", t_bits, t_frac),
-                    }
+                    Icu::stage_job_signals(p, ss, valid, ray, patch);
+                    Icu::stage_t_signal(p, ss, v, t);
                 });
             }
         }
     }
-}
-
-/// An ICU stage's job signals: valid, ray, patch (its t follows).
-#[inline(always)]
-fn stage_job<S: Sink>(p: &mut S, scope: &str, valid: u64, ray: u64, patch: u64) {
-    p.bits(scope, "valid", 1, valid);
-    p.bits(scope, "ray", 32, ray);
-    p.bits(scope, "patch", 24, patch);
 }
 
 /// Units whose signals the walk skips while they stay quiet ([`Sink::skip_quiet`]): each
@@ -596,18 +611,11 @@ pub(super) struct Scopes {
     balancer: String,
     arbiter: String,
     clusters: Vec<ClusterScopes>,
-    /// Which of these the probe keeps ([`crate::trace::Probe::wants`]), and whether it
-    /// keeps them all.
+    /// Which of these the probe keeps ([`crate::trace::Probe::wants`]), which links, and
+    /// whether it keeps them all.
     shown: Shown,
+    links: LinkShown,
     all_shown: bool,
-    /// Signals of the layout (the value array may be longer: see [`FILL_CAP`]).
-    signals: usize,
-    /// Per unit of [`quiet_units`]: it was quiet at the last sample.
-    quiet: Vec<Cell<bool>>,
-    /// Per cluster: its ICU's ring position at the last sample.
-    ring: Vec<Cell<usize>>,
-    /// The value array holds a whole sample (after the first fill).
-    filled: bool,
 }
 
 /// Whether the probe keeps a unit's signals (any of its scopes), per unit.
@@ -645,7 +653,7 @@ struct ClusterScopes {
 impl Scopes {
     /// The scopes of `m`'s units, each shown when `wants` it.
     fn new(m: &Machine, wants: &dyn Fn(&str) -> bool) -> Self {
-        let links_all_shown = m.links.all_shown();
+        let links = m.links.shown(wants);
         let k = m.cfg.machine.ctus_per_cluster as usize;
         let memory = "machine.memory";
         let balancer = "machine.balancer";
@@ -688,11 +696,8 @@ impl Scopes {
                     }
                 })
                 .collect(),
+            links,
             all_shown: false,
-            signals: 0,
-            quiet: Vec::new(),
-            ring: Vec::new(),
-            filled: false,
         };
         let Shown {
             memory,
@@ -711,7 +716,7 @@ impl Scopes {
                     && s.stages
                     && s.ctus.iter().all(|&x| x)
             })
-            && links_all_shown;
+            && sc.links.all();
         sc
     }
 }
@@ -735,7 +740,7 @@ mod tests {
     /// Reports the advanced ICU to `f` as the walk does.
     fn advance<S: Sink>(f: &mut S) {
         assert_eq!(f.shift_stages(STAGES), Shift::Moved);
-        stage_job(f, "", 0, 0, 0);
+        Icu::stage_job_signals(f, "", 0, 0, 0);
         f.fixed_zero("", "t", 8, 0);
         f.move_stages(STAGES);
         f.fixed("", "t", 8, 0, 4);
@@ -748,24 +753,27 @@ mod tests {
         (values, vec![0u32; LIST_CAP])
     }
 
+    /// What one ICU (its ring at `ring`) showed at the last sample, no quiet unit nor CTU.
+    fn last(ring: &mut [usize]) -> Last<'_> {
+        Last {
+            quiet: &mut [],
+            ring,
+            counts: &mut [],
+        }
+    }
+
     /// A [`Fill`] over `arrays()`, its probe shifting stages itself when `shifts`.
     fn fill<'a>(
         values: &'a mut [u64],
         changes: &'a mut [u32],
-        ring: &'a [Cell<usize>],
+        ring: &'a mut [usize],
         shifts: bool,
-    ) -> Fill<'a> {
-        Fill {
+    ) -> Fill<'a, Fixed<'a>> {
+        let a = Fixed {
             values: values.try_into().expect("FILL_CAP values"),
-            pos: 0,
-            listed: 0,
             changes: changes.try_into().expect("LIST_CAP positions"),
-            quiet: &[],
-            ring,
-            carry: [0; CARRY],
-            shifts,
-            shifted: false,
-        }
+        };
+        Fill::new(a, last(ring), true, shifts)
     }
 
     /// The values after the move, and the positions that changed, ascending.
@@ -774,9 +782,9 @@ mod tests {
 
     #[test]
     fn fill_moves_an_advanced_icus_stages_listing_the_changes_ascending() {
-        let ring = [Cell::new(0)];
+        let mut ring = [0];
         let (mut values, mut changes) = arrays();
-        let mut f = fill(&mut values, &mut changes, &ring, false);
+        let mut f = fill(&mut values, &mut changes, &mut ring, false);
         advance(&mut f);
         assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
         assert_eq!(values[..12], NEXT);
@@ -784,22 +792,15 @@ mod tests {
     }
 
     #[test]
-    fn fill_checked_moves_an_advanced_icus_stages_listing_the_changes_ascending() {
-        let ring = [Cell::new(0)];
+    fn a_checked_fill_moves_an_advanced_icus_stages_listing_the_changes_ascending() {
+        let mut ring = [0];
         let mut values = LAST.to_vec();
         let mut changes = vec![0u32; 12];
-        let mut f = FillChecked {
+        let a = Checked {
             values: &mut values,
-            pos: 0,
-            listed: 0,
             changes: &mut changes,
-            quiet: &[],
-            ring: &ring,
-            filled_before: true,
-            carry: [0; CARRY],
-            shifts: false,
-            shifted: false,
         };
+        let mut f = Fill::new(a, last(&mut ring), true, false);
         advance(&mut f);
         assert_eq!((f.pos, f.listed), (12, CHANGED.len()));
         assert_eq!(values, NEXT);
@@ -812,9 +813,9 @@ mod tests {
     /// same changes, ascending.
     #[test]
     fn a_shifting_probe_gets_one_entry_that_expands_to_the_same_changes() {
-        let ring = [Cell::new(0)];
+        let mut ring = [0];
         let (mut values, mut changes) = arrays();
-        let mut f = fill(&mut values, &mut changes, &ring, true);
+        let mut f = fill(&mut values, &mut changes, &mut ring, true);
         advance(&mut f);
         let listed = f.listed;
         assert_eq!(f.pos, 12);

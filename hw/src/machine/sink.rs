@@ -1,9 +1,12 @@
 //! What the machine's waveform walk (probe.rs) reports each signal to: the [`Sink`] trait,
 //! implemented by the layout's collector and the value fillers, and called by every unit
-//! and link that draws its signals (links.rs draws a link's without knowing the probe).
+//! and link that draws its signals — each unit names its own in its file (`Ctu::signals`,
+//! `Icu::stage_job_signals`, `Memory::signals`, …, each with the count it emits beside it; links
+//! through links.rs' `probe_link`), without knowing the probe. [`Count`] counts what an
+//! emitter reports (the units' tests check their counts with it).
 
 /// What the walk reports a signal to: the layout (first sample) or the value array.
-pub(super) trait Sink {
+pub(crate) trait Sink {
     /// An unsigned value of `width` bits.
     fn bits(&mut self, scope: &str, name: &'static str, width: u32, value: u64);
     /// An FSM state: `index` into `names`.
@@ -44,10 +47,18 @@ pub(super) trait Sink {
     fn move_stages(&mut self, stages: Stages) {
         let _ = stages;
     }
+    /// True when `count`, a counter of unit `u` (its number among the units the walk asks
+    /// this of: every CTU, cluster-major) that moves whenever the unit's signals may change
+    /// (`Ctu::active_cycles`), differs from its value at the last sample: a filler records
+    /// it (the model keeps no flag for the waveform). True unless a filler knows better.
+    fn moved(&mut self, u: usize, count: u64) -> bool {
+        let _ = (u, count);
+        true
+    }
     /// The next `n` signals are a unit's whose values can have changed since the last sample
-    /// only when `changed` (a link an edge touched, `Link::take_changed`; a CTU that ticked,
-    /// `Ctu::take_ticked`): a filler skips them when not, leaving the last sample's values,
-    /// once it has filled the array at least once. True when skipped.
+    /// only when `changed` (a link an edge touched, `Link::take_changed`; a CTU whose
+    /// counter [`Sink::moved`]): a filler skips them when not, leaving the last sample's
+    /// values, once it has filled the array at least once. True when skipped.
     fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
         let _ = (changed, n);
         false
@@ -57,7 +68,7 @@ pub(super) trait Sink {
 /// An ICU's stages as [`Sink::shift_stages`] is told of them: cluster `cluster`'s, its ring at
 /// `position`, `signals` in all, `stride` a stage of which the first `width` move on.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Stages {
+pub(crate) struct Stages {
     pub cluster: usize,
     pub position: usize,
     pub stride: usize,
@@ -67,7 +78,7 @@ pub(super) struct Stages {
 
 /// What [`Sink::shift_stages`] did with an ICU's stages.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(super) enum Shift {
+pub(crate) enum Shift {
     /// Nothing: the walk reports every stage.
     Walk,
     /// The ring did not move: every stage as it was, all skipped.
@@ -77,5 +88,20 @@ pub(super) enum Shift {
     Moved,
 }
 
-/// Signals a link shows (links.rs' `probe_link`): valid, ready, occupancy, transfers.
-pub(super) const LINK_SIGNALS: usize = 4;
+/// Counts the signals reported to it (a unit's emitter checked against its count).
+#[cfg(test)]
+#[derive(Debug, Default)]
+pub(crate) struct Count(pub usize);
+
+#[cfg(test)]
+impl Sink for Count {
+    fn bits(&mut self, _: &str, _: &'static str, _: u32, _: u64) {
+        self.0 += 1;
+    }
+    fn text(&mut self, _: &str, _: &'static str, _: &'static [&'static str], _: u64) {
+        self.0 += 1;
+    }
+    fn fixed(&mut self, _: &str, _: &'static str, _: u32, _: u32, _: i64) {
+        self.0 += 1;
+    }
+}

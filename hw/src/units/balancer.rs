@@ -19,6 +19,7 @@
 
 use crate::config::{BalanceTable, VictimPolicy};
 use crate::link::{Link, UnitId};
+use crate::machine::sink::Sink;
 use crate::msg::{Descriptor, Job, JobResult, RemoteResult, SplitOrder, WorkItem, JOB_WORDS};
 use std::collections::VecDeque;
 
@@ -123,6 +124,42 @@ pub struct BalancerPorts<'a> {
 }
 
 impl Balancer {
+    /// The balancer's waveform signals: [`Balancer::signals`] reports exactly these.
+    pub const SIGNALS: usize = 3;
+    /// Per cluster, in its balance scope: [`Balancer::cluster_signals`] reports these.
+    pub const CLUSTER_SIGNALS: usize = 1 + 1;
+    /// Per cluster, in its ray buffer's scope (bundle): [`Balancer::ray_buffer_signals`].
+    pub const RAY_BUFFER_SIGNALS: usize = 1;
+
+    /// Reports the balancer's own waveform signals to `s` under `scope` (a new signal: one
+    /// line here, counted in [`Balancer::SIGNALS`]).
+    #[inline(always)]
+    pub(crate) fn signals(&self, s: &mut impl Sink, scope: &str) {
+        s.bits(scope, "split_orders", 32, self.stats.split_orders);
+        s.bits(scope, "jobs_moved", 32, self.stats.jobs_moved);
+        s.bits(scope, "retries", 32, self.stats.retries);
+    }
+
+    /// Reports what the balancer holds for cluster `c` to `s` under the cluster's balance
+    /// `scope` ([`Balancer::CLUSTER_SIGNALS`]).
+    #[inline(always)]
+    pub(crate) fn cluster_signals(&self, s: &mut impl Sink, scope: &str, c: usize) {
+        s.bits(scope, "work_request", 1, self.requesting(c) as u64);
+        s.bits(scope, "jobs_inbound", 16, self.inbound(c) as u64);
+    }
+
+    /// Reports the descriptors on their way to cluster `c` to `s` under its ray buffer's
+    /// `scope` ([`Balancer::RAY_BUFFER_SIGNALS`]; bundle only).
+    #[inline(always)]
+    pub(crate) fn ray_buffer_signals(&self, s: &mut impl Sink, scope: &str, c: usize) {
+        s.bits(
+            scope,
+            "descriptors_inbound",
+            16,
+            self.inbound_descriptors(c) as u64,
+        );
+    }
+
     /// A balancer for `clusters` clusters.
     pub fn new(cfg: BalanceTable, clusters: usize) -> Self {
         Balancer {
@@ -636,5 +673,21 @@ mod tests {
         assert_eq!(home, vec![(21 + at, 20), (22 + at, 21)]);
         assert_eq!(b.stats.results_returned, 2);
         assert!(b.idle());
+    }
+
+    #[test]
+    fn the_balancer_reports_its_signal_counts() {
+        use crate::machine::sink::Count;
+        let b = Balancer::new(cfg(VictimPolicy::MostPending), 2);
+        let mut n = [Count::default(), Count::default(), Count::default()];
+        b.signals(&mut n[0], "");
+        b.cluster_signals(&mut n[1], "", 1);
+        b.ray_buffer_signals(&mut n[2], "", 1);
+        let want = [
+            Balancer::SIGNALS,
+            Balancer::CLUSTER_SIGNALS,
+            Balancer::RAY_BUFFER_SIGNALS,
+        ];
+        assert_eq!(n.map(|c| c.0), want);
     }
 }

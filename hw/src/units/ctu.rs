@@ -29,10 +29,10 @@ use crate::datapath::model::STOP_SLACK_T_LSB;
 use crate::datapath::record::{CellTable, RayRecord};
 use crate::datapath::{compare, FixedHit};
 use crate::link::{Link, UnitCode, UnitId};
+use crate::machine::sink::Sink;
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, PatchArrival};
 use crate::units::ray_pool::RayList;
 use bitvec::prelude::*;
-use std::cell::Cell;
 
 /// The traversal FSM's states.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -247,11 +247,36 @@ pub struct Ctu {
     phase_of: BitVec,
     boundary_ray: Option<u32>,
     pub stats: CtuStats,
-    /// [`Ctu::tick_active`] ran since the waveform last looked ([`Ctu::take_ticked`]).
-    ticked: Cell<bool>,
+    /// Cycles [`Ctu::tick_active`] ran ([`Ctu::active_cycles`]).
+    active: u64,
 }
 
 impl Ctu {
+    /// A CTU's waveform signals: [`Ctu::signals`] reports exactly these (the walk skips
+    /// this many for a CTU that cannot have changed them).
+    pub const SIGNALS: usize = 6;
+    /// Its bundle signals, after its links: [`Ctu::bundle_signals`] reports these.
+    pub const BUNDLE_SIGNALS: usize = 1;
+
+    /// Reports the CTU's waveform signals to `s` under `scope` (a new signal: one line here,
+    /// counted in [`Ctu::SIGNALS`]; it must change only in [`Ctu::tick_active`], which
+    /// counts [`Ctu::active_cycles`]).
+    #[inline(always)]
+    pub(crate) fn signals(&self, s: &mut impl Sink, scope: &str) {
+        s.text(scope, "state", CtuState::NAMES, self.state.index());
+        s.bits(scope, "shell", 16, self.shell() as u64);
+        s.bits(scope, "remaining_rays", 32, self.remaining() as u64);
+        s.bits(scope, "outstanding_jobs", 32, self.outstanding());
+        s.bits(scope, "pending_loads", 16, self.pending_loads() as u64);
+        s.bits(scope, "jobs_issued", 32, self.stats.jobs_issued);
+    }
+
+    /// Reports the CTU's bundle signals to `s` under `scope` ([`Ctu::BUNDLE_SIGNALS`]).
+    #[inline(always)]
+    pub(crate) fn bundle_signals(&self, s: &mut impl Sink, scope: &str) {
+        s.bits(scope, "descriptors", 32, self.stats.descriptors);
+    }
+
     /// The CTU with `ids` marked loaded before it starts: patches its source's rays pass
     /// through (coplanar twins), never requested — like the source.
     pub fn skipping(mut self, ids: &[u32]) -> Self {
@@ -282,7 +307,7 @@ impl Ctu {
             p,
             me: UnitId::Ctu(p.cluster as usize, p.local as usize).into(),
             finished: false,
-            ticked: Cell::new(false),
+            active: 0,
             state: CtuState::Idle,
             remaining: (0..slots.len() as u32).collect(),
             best: vec![None; slots.len()],
@@ -456,13 +481,13 @@ impl Ctu {
         self.finished
     }
 
-    /// True when [`Ctu::tick_active`] ran since the last call, which clears it. Nothing else
-    /// changes what the waveform shows of a CTU (its state, shell, remaining rays,
-    /// outstanding jobs, pending loads, jobs issued): an idle cycle and a cycle jump only
-    /// count cycles, so the walk reads the CTU's signals only then.
+    /// Cycles [`Ctu::tick_active`] ran. Nothing else changes what the waveform shows of a
+    /// CTU (its state, shell, remaining rays, outstanding jobs, pending loads, jobs issued):
+    /// an idle cycle and a cycle jump only count cycles, so the waveform's sampler reads the
+    /// CTU's signals only when this moved since its last sample.
     #[inline(always)]
-    pub fn take_ticked(&self) -> bool {
-        self.ticked.replace(false)
+    pub fn active_cycles(&self) -> u64 {
+        self.active
     }
 
     /// A cycle of a finished CTU: `skip(1)` in DONE.
@@ -475,7 +500,7 @@ impl Ctu {
     /// A cycle with something to do (or to check).
     #[inline(always)]
     pub fn tick_active(&mut self, now: u64, io: &mut CtuPorts, cells: &CellTable) {
-        self.ticked.set(true);
+        self.active += 1;
         self.stats.state_cycles.add(self.state, 1);
         let me = self.me;
         let mut busy = false;
@@ -1115,5 +1140,16 @@ mod tests {
         // … at 2, ⌊ids of the cell / 2⌋ + 1 per cell: fewer, never below ids / 2.
         assert!(scanning(s2) < scanning(s1), "{s1:?}\n{s2:?}");
         assert!(2 * scanning(s2) >= s2.ids_scanned, "{s2:?}");
+    }
+
+    #[test]
+    fn a_ctu_reports_its_signal_counts() {
+        use crate::machine::sink::Count;
+        let (cells, rays) = scene();
+        let ctu = Ctu::new(params(8), &[0, 1], &rays, &cells, 3);
+        let (mut a, mut b) = (Count::default(), Count::default());
+        ctu.signals(&mut a, "");
+        ctu.bundle_signals(&mut b, "");
+        assert_eq!((a.0, b.0), (Ctu::SIGNALS, Ctu::BUNDLE_SIGNALS));
     }
 }

@@ -15,6 +15,7 @@ use crate::datapath::format::Formats;
 use crate::datapath::record::{PatchRecord, RayRecord};
 use crate::datapath::{self, Edges, Exceptions, Interpolated, RaySpace, Translated};
 use crate::link::{Link, UnitCode, UnitId};
+use crate::machine::sink::Sink;
 use crate::msg::{Job, JobResult, RemoteResult};
 
 /// What a stage register holds besides the job.
@@ -102,6 +103,64 @@ pub struct Icu {
 }
 
 impl Icu {
+    /// The ICU's own waveform signals: [`Icu::signals`] reports exactly these.
+    pub const SIGNALS: usize = 1;
+    /// A stage's waveform signals (valid, ray, patch, t): [`Icu::stage_job_signals`] and
+    /// [`Icu::stage_t_signal`] report them, the waveform's walk calling them for each stage
+    /// with [`Icu::for_each_stage`]'s values (a new stage signal: a line in one of them,
+    /// counted here).
+    pub const STAGE_SIGNALS: usize = 4;
+    /// The first of them that move on to the next stage as the pipeline advances (valid,
+    /// ray, patch; t is shown in the result stage only, zero before it).
+    pub const STAGE_MOVING: usize = 3;
+
+    /// Reports the ICU's own waveform signals to `s` under `scope` (a new signal: one line
+    /// here, counted in [`Icu::SIGNALS`]).
+    #[inline(always)]
+    pub(crate) fn signals(&self, s: &mut impl Sink, scope: &str) {
+        s.bits(scope, "jobs_in", 32, self.stats.jobs_in);
+    }
+
+    /// Stage 0's signals (an advanced pipeline whose later stages the sink moves itself).
+    #[inline(always)]
+    pub(crate) fn first_stage_signals(&self, s: &mut impl Sink, scope: &str, t: (u32, u32)) {
+        let job = self.stage_job(0).map(|(j, _)| j);
+        let (ray, patch) = job.map_or((0, 0), |j| (j.ray as u64, j.patch as u64));
+        Self::stage_job_signals(s, scope, job.is_some() as u64, ray, patch);
+        Self::stage_t_signal(s, scope, None, t);
+    }
+
+    /// The result stage's t.
+    #[inline(always)]
+    pub(crate) fn result_t_signal(&self, s: &mut impl Sink, scope: &str, t: (u32, u32)) {
+        let v = self.stage_job(self.depth() - 1).and_then(|(_, t)| t);
+        Self::stage_t_signal(s, scope, Some(v.unwrap_or(0)), t);
+    }
+
+    /// A stage's t in the format `t` = (bits, fractional bits): `v` in the result stage,
+    /// `None` before it (always zero: a sink may leave it as it is).
+    #[inline(always)]
+    pub(crate) fn stage_t_signal(s: &mut impl Sink, scope: &str, v: Option<i64>, t: (u32, u32)) {
+        match v {
+            Some(v) => s.fixed(scope, "t", t.0, t.1, v),
+            None => s.fixed_zero(scope, "t", t.0, t.1),
+        }
+    }
+
+    /// A stage's moving signals ([`Icu::STAGE_MOVING`]): valid, ray, patch (its t follows).
+    #[inline(always)]
+    pub(crate) fn stage_job_signals(
+        s: &mut impl Sink,
+        scope: &str,
+        valid: u64,
+        ray: u64,
+        patch: u64,
+    ) {
+        s.bits(scope, "valid", 1, valid);
+        s.bits(scope, "ray", 32, ray);
+        s.bits(scope, "patch", 24, patch);
+    }
+
     /// A pipeline of 4 + `divider_stages` + 1 stages.
     pub fn new(divider_stages: u32) -> Self {
         Icu {
@@ -621,5 +680,22 @@ mod tests {
         want.push(StageValue::Result(hit));
         assert_eq!(shown, want);
         assert_eq!(out.expect("the result left").t, hit);
+    }
+
+    #[test]
+    fn the_icu_reports_its_signal_counts() {
+        use crate::machine::sink::Count;
+        let icu = Icu::new(3);
+        let [mut a, mut b, mut c, mut d] = <[Count; 4]>::default();
+        icu.signals(&mut a, "");
+        icu.for_each_stage(|valid, ray, patch, v| {
+            Icu::stage_job_signals(&mut b, "", valid, ray, patch);
+            Icu::stage_t_signal(&mut b, "", v, (16, 8));
+        });
+        Icu::stage_job_signals(&mut c, "", 0, 0, 0);
+        icu.first_stage_signals(&mut d, "", (16, 8));
+        assert_eq!(a.0, Icu::SIGNALS);
+        assert_eq!(b.0, Icu::STAGE_SIGNALS * icu.depth());
+        assert_eq!((c.0, d.0), (Icu::STAGE_MOVING, Icu::STAGE_SIGNALS));
     }
 }

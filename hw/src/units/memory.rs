@@ -11,6 +11,7 @@
 
 use crate::config::ArbiterPolicy;
 use crate::link::{Link, UnitId};
+use crate::machine::sink::Sink;
 use crate::msg::{MemRequest, PatchArrival};
 use std::collections::VecDeque;
 
@@ -65,6 +66,27 @@ pub struct Memory {
 }
 
 impl Memory {
+    /// The memory's waveform signals: [`Memory::signals`] reports exactly these.
+    pub const SIGNALS: usize = 3;
+    /// The arbiter's: [`Memory::arbiter_signals`] reports exactly these.
+    pub const ARBITER_SIGNALS: usize = 1;
+
+    /// Reports the memory's waveform signals at cycle `now` to `s` under `scope` (a new
+    /// signal: one line here, counted in [`Memory::SIGNALS`]).
+    #[inline(always)]
+    pub(crate) fn signals(&self, s: &mut impl Sink, scope: &str, now: u64) {
+        s.bits(scope, "port_busy", 1, self.port_busy(now) as u64);
+        s.bits(scope, "in_flight", 16, self.inflight() as u64);
+        s.bits(scope, "grants", 32, self.stats.grants);
+    }
+
+    /// Reports the arbiter's waveform signals to `s` under `scope` (counted in
+    /// [`Memory::ARBITER_SIGNALS`]).
+    #[inline(always)]
+    pub(crate) fn arbiter_signals(&self, s: &mut impl Sink, scope: &str) {
+        s.bits(scope, "last_grant", 16, self.last_grant.min(0xFFFF) as u64);
+    }
+
     /// A memory serving `clusters` clusters, with `latency` cycles and `words` words per
     /// patch record.
     pub fn new(policy: ArbiterPolicy, latency: u32, words: u32, clusters: usize) -> Self {
@@ -362,5 +384,15 @@ mod tests {
         assert_eq!(arrivals, vec![(l, 7), (words as u64 + l, 8)]);
         assert_eq!(m.stats.words, 2 * words as u64);
         assert_eq!(m.stats.wait_cycles, words as u64);
+    }
+
+    #[test]
+    fn the_memory_reports_its_signal_counts() {
+        use crate::machine::sink::Count;
+        let m = Memory::new(ArbiterPolicy::RoundRobin, 2, 1, 2);
+        let (mut a, mut b) = (Count::default(), Count::default());
+        m.signals(&mut a, "", 0);
+        m.arbiter_signals(&mut b, "");
+        assert_eq!((a.0, b.0), (Memory::SIGNALS, Memory::ARBITER_SIGNALS));
     }
 }

@@ -11,6 +11,7 @@
 //! the last descriptor (never the front descriptor's last job) and sends it as a descriptor.
 
 use crate::link::{Link, UnitCode, UnitId};
+use crate::machine::sink::Sink;
 use crate::msg::{Descriptor, Job, SplitOrder, WorkItem};
 use crate::units::ray_pool::RayList;
 use std::collections::VecDeque;
@@ -69,6 +70,23 @@ struct JobPorts<'a> {
 }
 
 impl RayBuffer {
+    /// The ray buffer's own waveform signals (bundle; its queue shows as a link's):
+    /// [`RayBuffer::bundle_signals`] reports exactly these.
+    pub const BUNDLE_SIGNALS: usize = 6;
+
+    /// Reports the descriptor store's waveform signals to `s` under `scope` (a new signal:
+    /// one line here, counted in [`RayBuffer::BUNDLE_SIGNALS`]).
+    #[inline(always)]
+    pub(crate) fn bundle_signals(&self, s: &mut impl Sink, scope: &str) {
+        let (patch, left) = self.expanding().unwrap_or((0, 0));
+        s.bits(scope, "descriptors", 16, self.descriptors() as u64);
+        s.bits(scope, "jobs_waiting", 32, self.waiting() as u64);
+        s.bits(scope, "expanding_patch", 24, patch as u64);
+        s.bits(scope, "expanding_left", 32, left as u64);
+        s.bits(scope, "descriptors_in", 32, self.stats.descriptors_in);
+        s.bits(scope, "splits", 32, self.stats.work_items_given);
+    }
+
     /// A buffer of `capacity` jobs with `inputs` input ports (CTUs + the network).
     pub fn new(capacity: u32, inputs: usize) -> Self {
         RayBuffer {
@@ -493,5 +511,12 @@ mod tests {
         assert!(w.jobs.is_empty());
         assert_eq!(b.queue.len(), 1);
         assert_eq!(b.stats.work_items_given, 0);
+    }
+
+    #[test]
+    fn the_ray_buffer_reports_its_signal_count() {
+        let mut n = crate::machine::sink::Count::default();
+        RayBuffer::new(4, 1).bundle_signals(&mut n, "");
+        assert_eq!(n.0, RayBuffer::BUNDLE_SIGNALS);
     }
 }
