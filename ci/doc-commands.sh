@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every `shellsim …` command in the fenced code blocks of README.md and docs/manual/*.md
 # names a subcommand that exists and only flags that subcommand accepts; the files its
-# --scene, --space, --hw and --matrix name (when they are repository paths) exist.
+# --scene, --space, --hw and --matrix name (when they are repository paths) exist; every
+# relative link of those files points to a file that exists.
 #
 #   bash ci/doc-commands.sh [SHELLSIM_BINARY]     (default target/release/shellsim)
 #
@@ -33,6 +34,7 @@ commands_of() { # the subcommands a help text lists
 
 fail=0
 checked=0
+links=0
 files=(README.md docs/manual/*.md)
 while IFS=$'\t' read -r file line cmd; do
   checked=$((checked + 1))
@@ -109,6 +111,29 @@ done < <(
       print FILENAME "\t" start "\t" substr(s, n)
     }' "${files[@]}"
 )
+# every relative link of these files points to a file that exists
+for f in "${files[@]}"; do
+  dir="$(dirname "$f")"
+  while IFS=$'\t' read -r line target; do
+    target="${target%%#*}"
+    [ -z "$target" ] && continue
+    links=$((links + 1))
+    if [ ! -e "$dir/$target" ]; then
+      echo "$f:$line: the link ($target) points to nothing" >&2
+      fail=1
+    fi
+  done < <(awk '
+    /^[ \t]*```/ { fence = !fence; next }
+    fence { next }
+    {
+      s = $0
+      while (match(s, /\]\([^)[:space:]]+\)/)) {
+        t = substr(s, RSTART + 2, RLENGTH - 3)
+        if (t !~ /^[a-z]+:/) print FNR "\t" t
+        s = substr(s, RSTART + RLENGTH)
+      }
+    }' "$f")
+done
 if [ "$checked" -eq 0 ]; then
   echo "doc-commands: no shellsim command found in ${files[*]}" >&2
   exit 1
@@ -116,4 +141,4 @@ fi
 if [ "$fail" -ne 0 ]; then
   exit 1
 fi
-echo "doc-commands: $checked shellsim commands in ${#files[@]} files: every subcommand and flag exists"
+echo "doc-commands: $checked shellsim commands in ${#files[@]} files: every subcommand and flag exists; all $links relative links resolve"
