@@ -5,7 +5,7 @@
 //! cannot take is refused exactly as in a `--hw` file; errors name the spec file, the line
 //! and the key.
 //!
-//! The format (README, "Design-space exploration"):
+//! The format (docs/manual/explore.md):
 //!
 //! ```toml
 //! title = "scene2, bits against clusters"   # optional, heads the report

@@ -17,7 +17,7 @@ use crate::error::{shown, Error, Result};
 use std::path::Path;
 
 impl Scene {
-    /// Reads a scene by its extension: `.json` (the schema in README.md) or `.obj`
+    /// Reads a scene by its extension: `.json` (the schema in docs/manual/scenes.md) or `.obj`
     /// (Wavefront, see [`obj`]), and validates it.
     pub fn load(path: &Path) -> Result<Scene> {
         load_with(path, &Edits::default()).map(|l| l.scene)

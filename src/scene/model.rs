@@ -319,7 +319,7 @@ impl Scene {
         Ok(scene)
     }
 
-    /// The scene as JSON text (the schema in README.md), one patch per line.
+    /// The scene as JSON text (the schema in docs/manual/scenes.md), one patch per line.
     pub fn to_json_string(&self) -> String {
         let mut s = String::new();
         s.push_str("{\n  \"name\": ");
