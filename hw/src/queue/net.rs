@@ -116,6 +116,15 @@ fn ctu_issued(orig: u64, start: u64, issue_end: u64, now: u64) -> u64 {
     (u128::from(orig) * u128::from(elapsed) / u128::from(span)) as u64
 }
 
+/// With `job_source = "ctu"`, the jobs of a batch a split may take at `now`: of its `jobs`
+/// left, those its issuer has handed over ([`ctu_issued`]) that no earlier split took (`cut`
+/// jobs were split off, all of them handed over).
+fn ctu_given(jobs: u64, cut: u64, start: u64, issue_end: u64, now: u64) -> u64 {
+    ctu_issued(jobs + cut, start, issue_end, now)
+        .saturating_sub(cut)
+        .min(jobs)
+}
+
 /// Records a patch buffer's link to one CTU holds.
 const INBOX: usize = 2;
 
@@ -868,9 +877,7 @@ impl Net<'_> {
                     continue;
                 }
                 let given = if bt.ret == 0 {
-                    ctu_issued(bt.jobs + bt.cut, bt.start, bt.issue_end, now)
-                        .saturating_sub(bt.cut)
-                        .min(bt.jobs)
+                    ctu_given(bt.jobs, bt.cut, bt.start, bt.issue_end, now)
                 } else {
                     bt.jobs
                 };
@@ -1042,6 +1049,18 @@ mod tests {
         assert_eq!(ctu_issued(100, 60, 160, 49), 0);
         // A full buffer: the same 100 jobs over 400 cycles, one every 4.
         assert_eq!(ctu_issued(100, 0, 400, 199), 50);
+    }
+
+    #[test]
+    fn a_split_takes_only_handed_over_jobs_that_no_split_took() {
+        // 50 of 100 handed over by cycle 49; 20 of them split off: 30 left to take, a cycle
+        // later 31.
+        assert_eq!(ctu_given(100, 0, 0, 100, 49), 50);
+        assert_eq!(ctu_given(80, 20, 0, 100, 49), 30);
+        assert_eq!(ctu_given(80, 20, 0, 100, 50), 31);
+        // All that is left once the issue is over; nothing before it starts.
+        assert_eq!(ctu_given(80, 20, 0, 100, 120), 80);
+        assert_eq!(ctu_given(100, 0, 60, 160, 49), 0);
     }
 
     #[test]
