@@ -62,6 +62,14 @@ fn spec_file(text: &str) -> PathBuf {
 
 /// `explore run` of `spec` into `out`.
 fn run(spec: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>) -> Output {
+    match shard {
+        Some(s) => run_with(spec, out, &["--shard", s], threads),
+        None => run_with(spec, out, &[], threads),
+    }
+}
+
+/// `explore run` of `spec` into `out` with `extra` arguments.
+fn run_with(spec: &Path, out: &Path, extra: &[&str], threads: Option<usize>) -> Output {
     let mut a = vec![
         "explore",
         "run",
@@ -70,9 +78,7 @@ fn run(spec: &Path, out: &Path, shard: Option<&str>, threads: Option<usize>) -> 
         "--out",
         out.to_str().unwrap(),
     ];
-    if let Some(s) = shard {
-        a.extend(["--shard", s]);
-    }
+    a.extend(extra);
     shellsim(&a, threads)
 }
 
@@ -773,19 +779,7 @@ fn a_reference_too_big_for_the_memory_limit_is_refused() {
 /// rows by index, and front.csv's cycles rows (without the timing column).
 fn timed_study(spec: &Path, timing: &str) -> (PathBuf, Vec<Vec<String>>, Vec<String>) {
     let out = keep().join(timing);
-    let o = shellsim(
-        &[
-            "explore",
-            "run",
-            "--space",
-            spec.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--timing",
-            timing,
-        ],
-        Some(2),
-    );
+    let o = run_with(spec, &out, &["--timing", timing], Some(2));
     ok(&o, &format!("explore run --timing {timing}"));
     let csv = std::fs::read_to_string(out.join("points.csv")).unwrap();
     let rows: Vec<Vec<String>> = csv
@@ -858,19 +852,7 @@ fn auto_timing_finds_the_all_cycle_front_with_fewer_cycle_runs() {
         let i: usize = r[0].parse().unwrap();
         std::fs::remove_file(out.join("points").join(format!("{i:06}.json"))).unwrap();
     }
-    let o = shellsim(
-        &[
-            "explore",
-            "run",
-            "--space",
-            spec.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--timing",
-            "auto",
-        ],
-        Some(1),
-    );
+    let o = run_with(&spec, &out, &["--timing", "auto"], Some(1));
     ok(&o, "the resumed auto run");
     assert!(String::from_utf8_lossy(&o.stdout).contains("5 measured, 91 already there"));
     for (f, b) in ["points.csv", "report.md", "front.csv"].iter().zip(&before) {
@@ -880,21 +862,7 @@ fn auto_timing_finds_the_all_cycle_front_with_fewer_cycle_runs() {
         );
     }
     let shard = keep().join("shard");
-    let o = shellsim(
-        &[
-            "explore",
-            "run",
-            "--space",
-            spec.to_str().unwrap(),
-            "--out",
-            shard.to_str().unwrap(),
-            "--timing",
-            "auto",
-            "--shard",
-            "0/2",
-        ],
-        None,
-    );
+    let o = run_with(&spec, &shard, &["--timing", "auto", "--shard", "0/2"], None);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("unsharded"));
 }

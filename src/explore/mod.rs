@@ -622,29 +622,11 @@ fn auto_rounds(
             .copied()
             .filter(|i| files[i].point.timing != Some(Timing::Cycle))
             .collect();
-        let mut bar = (progress && !run.is_empty())
-            .then(|| crate::progress::Progress::new(run.len() as u64, "points at the cycle level"));
-        let block = (4 * rayon::current_num_threads()).max(8);
-        for chunk in run.chunks(block) {
-            let part: Vec<Result<PointFile>> = chunk
-                .par_iter()
-                .map(|&i| {
-                    let f = time_at_cycle(spec, &spec.points[i], &files[&i])?;
-                    output::write_json(&point_file(dir, i), &f)?;
-                    Ok(f)
-                })
-                .collect();
-            for f in part {
-                let f = f?;
-                files.insert(f.point.index, f);
-            }
-            if let Some(b) = bar.as_mut() {
-                b.inc(chunk.len() as u64);
-            }
-        }
-        if let Some(b) = bar {
-            b.finish();
-        }
+        let show = progress && !run.is_empty();
+        let timed = measure(&run, show, "points at the cycle level", dir, |&i| {
+            time_at_cycle(spec, &spec.points[i], &files[&i])
+        })?;
+        files.extend(timed);
         exact.extend(picked.iter().copied());
         let worst = exact
             .iter()
@@ -679,6 +661,41 @@ fn auto_rounds(
         check_mean,
         check_max,
     })
+}
+
+/// Measures `items` in parallel blocks (with a progress bar labelled `label` when `show`),
+/// writing each point's file into `dir` as it is measured; the files by index.
+fn measure<T: Sync>(
+    items: &[T],
+    show: bool,
+    label: &str,
+    dir: &Path,
+    f: impl Fn(&T) -> Result<PointFile> + Sync,
+) -> Result<BTreeMap<usize, PointFile>> {
+    let mut out = BTreeMap::new();
+    let mut bar = show.then(|| crate::progress::Progress::new(items.len() as u64, label));
+    let block = (4 * rayon::current_num_threads()).max(8);
+    for chunk in items.chunks(block) {
+        let part: Vec<Result<PointFile>> = chunk
+            .par_iter()
+            .map(|x| {
+                let pf = f(x)?;
+                output::write_json(&point_file(dir, pf.point.index), &pf)?;
+                Ok(pf)
+            })
+            .collect();
+        for pf in part {
+            let pf = pf?;
+            out.insert(pf.point.index, pf);
+        }
+        if let Some(b) = bar.as_mut() {
+            b.inc(chunk.len() as u64);
+        }
+    }
+    if let Some(b) = bar {
+        b.finish();
+    }
+    Ok(out)
 }
 
 /// How a run went.
@@ -871,38 +888,18 @@ pub fn run(
         })
         .collect::<Result<_>>()?;
     let refs: BTreeMap<(usize, u32), Vec<f64>> = refs.into_iter().collect();
-    let mut progress =
-        show_progress.then(|| crate::progress::Progress::new(pending.len() as u64, "points"));
-    let block = (4 * rayon::current_num_threads()).max(8);
-    for chunk in pending.chunks(block) {
-        let part: Vec<Result<PointFile>> = chunk
-            .par_iter()
-            .map(|p| {
-                let timing = match spec.timing {
-                    Timing::Cycle => Timing::Cycle,
-                    Timing::Queue | Timing::Auto => Timing::Queue,
-                };
-                let (point, host) = evaluate(spec, p, &refs[&(p.scene, p.source)], timing)?;
-                let f = PointFile {
-                    spec_hash: spec.hash.clone(),
-                    point,
-                    host,
-                };
-                output::write_json(&point_file(dir, p.index), &f)?;
-                Ok(f)
-            })
-            .collect();
-        for f in part {
-            let f = f?;
-            done.insert(f.point.index, f);
-        }
-        if let Some(p) = progress.as_mut() {
-            p.inc(chunk.len() as u64);
-        }
-    }
-    if let Some(p) = progress {
-        p.finish();
-    }
+    let timing = match spec.timing {
+        Timing::Cycle => Timing::Cycle,
+        Timing::Queue | Timing::Auto => Timing::Queue,
+    };
+    done.extend(measure(&pending, show_progress, "points", dir, |p| {
+        let (point, host) = evaluate(spec, p, &refs[&(p.scene, p.source)], timing)?;
+        Ok(PointFile {
+            spec_hash: spec.hash.clone(),
+            point,
+            host,
+        })
+    })?);
     let auto = match spec.timing {
         Timing::Auto => Some(auto_rounds(spec, dir, &mut done, show_progress)?),
         _ => None,
