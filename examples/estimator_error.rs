@@ -1,5 +1,5 @@
 //! Measures the RMS error of the form-factor estimators against analytic values over many
-//! seeds (the figures behind the bounds in tests/convergence.rs):
+//! seeds (the figures behind the bounds in tests/it/convergence.rs):
 //! `cargo run --release --example estimator_error`.
 
 use glam::DVec3;

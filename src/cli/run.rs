@@ -6,6 +6,7 @@ use crate::error::{Error, Result};
 use crate::machine::run::{execute, RunSpec, Waveform};
 use crate::output::{check_outputs, Output};
 use crate::wave::{FstPack, ScopeFilter, WaveFormat, WaveOptions, Window};
+use shellsim_hw::machine::TickOrder;
 use std::path::PathBuf;
 
 /// Arguments of `shellsim run`.
@@ -64,6 +65,24 @@ pub struct RunArgs {
     /// Only with an FST (`--wave FILE.fst`).
     #[arg(long, value_enum, value_name = "PACK", requires = "waveform")]
     pub fst_pack: Option<FstPack>,
+    /// The order the units tick in within a cycle: `forward` (the default), `reverse` or
+    /// `shuffled:SEED` (a new permutation every cycle). No result or statistic may depend on
+    /// it; the tests compare the orders and print this flag when they differ.
+    #[arg(long, value_name = "ORDER", default_value = "forward", value_parser = parse_tick_order)]
+    pub tick_order: TickOrder,
+}
+
+/// `--tick-order`: `forward`, `reverse` or `shuffled:SEED`.
+fn parse_tick_order(s: &str) -> std::result::Result<TickOrder, String> {
+    match s {
+        "forward" => Ok(TickOrder::Forward),
+        "reverse" => Ok(TickOrder::Reverse),
+        _ => s
+            .strip_prefix("shuffled:")
+            .and_then(|n| n.parse().ok())
+            .map(TickOrder::Shuffled)
+            .ok_or_else(|| format!("`{s}`: expected forward, reverse or shuffled:SEED")),
+    }
 }
 
 /// A run's timing level.
@@ -91,7 +110,7 @@ pub fn run(a: &RunArgs) -> Result<()> {
     let spec = RunSpec {
         source,
         ratio: a.ratio,
-        order: shellsim_hw::machine::TickOrder::Forward,
+        order: a.tick_order,
     };
     if a.level == Level::Queue {
         let q =

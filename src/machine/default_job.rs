@@ -35,7 +35,7 @@ pub struct AnalyticCheck {
     pub estimate: f64,
     /// Lambert's value.
     pub truth: f64,
-    /// The estimate's standard error (the stratified error model of tests/convergence.rs).
+    /// The estimate's standard error (the stratified error model of tests/it/convergence.rs).
     pub sigma: f64,
 }
 
@@ -158,7 +158,7 @@ fn analytic_check() -> AnalyticCheck {
     let estimate = ff.iter().find(|x| x.patch == 1).map_or(0.0, |x| x.value);
     let truth =
         crate::reference::analytic::point_to_polygon(centre, DVec3::Z, &cube.patches[1].vertices);
-    // Stratified error model of tests/convergence.rs.
+    // Stratified error model of tests/it/convergence.rs.
     AnalyticCheck {
         estimate,
         truth,

@@ -326,7 +326,7 @@ fn ratio(a: u64, b: u64) -> f64 {
 
 impl RunStats {
     /// `Err(Error::Check)` when some ray's result differs from the untimed fixed-point
-    /// model's.
+    /// model's, or when the counters break a conservation law ([`RunStats::broken_laws`]).
     pub fn verdict(&self) -> Result<()> {
         if self.mismatches_vs_fixed > 0 {
             return Err(Error::Check(format!(
@@ -334,7 +334,112 @@ impl RunStats {
                 self.mismatches_vs_fixed
             )));
         }
+        let broken = self.broken_laws();
+        if !broken.is_empty() {
+            return Err(Error::Check(format!(
+                "the machine's counters break {} conservation law(s): {}",
+                broken.len(),
+                broken.join("; ")
+            )));
+        }
         Ok(())
+    }
+
+    /// The conservation laws a finished cycle-level run keeps, each broken one described:
+    /// every job goes through an ICU and its result comes home to a CTU; memory grants =
+    /// requests = patch loads; jobs moved = jobs given, remote results = results returned;
+    /// with descriptors, every job came out of one, each descriptor taken once; every unit's
+    /// cycles partition into busy, stalled and idle, a CTU's also into its FSM states, its
+    /// join waits inside JOIN.
+    pub fn broken_laws(&self) -> Vec<String> {
+        let mut broken = Vec::new();
+        let mut law = |holds: bool, what: String| {
+            if !holds {
+                broken.push(what);
+            }
+        };
+        let cl = &self.clusters;
+        let ctus = || cl.iter().flat_map(|c| &c.ctus);
+        let icu_in: u64 = cl.iter().map(|c| c.icu.jobs_in).sum();
+        let icu_out: u64 = cl.iter().map(|c| c.icu.results_out).sum();
+        let results: u64 = ctus().map(|c| c.results).sum();
+        law(
+            icu_in == self.jobs && icu_out == self.jobs && results == self.jobs,
+            format!(
+                "{} jobs, {icu_in} into the ICUs, {icu_out} out, {results} results at the CTUs",
+                self.jobs
+            ),
+        );
+        law(
+            self.memory.grants == self.patch_loads && self.memory_requests == self.patch_loads,
+            format!(
+                "{} memory grants, {} requests, {} patch loads",
+                self.memory.grants, self.memory_requests, self.patch_loads
+            ),
+        );
+        let given: u64 = cl.iter().map(|c| c.ray_buffer.jobs_given).sum();
+        let remote: u64 = cl.iter().map(|c| c.icu.remote_results_out).sum();
+        law(
+            self.balancer.jobs_moved == given,
+            format!(
+                "the balancer moved {} jobs, the ray buffers gave {given}",
+                self.balancer.jobs_moved
+            ),
+        );
+        law(
+            self.balancer.results_returned == remote,
+            format!(
+                "the balancer returned {} results, the ICUs sent {remote} home",
+                self.balancer.results_returned
+            ),
+        );
+        let descs: u64 = ctus().map(|c| c.descriptors).sum();
+        if descs > 0 {
+            let expanded: u64 = cl.iter().map(|c| c.ray_buffer.jobs_in).sum();
+            let taken: u64 = cl.iter().map(|c| c.ray_buffer.descriptors_in).sum();
+            law(
+                expanded == self.jobs,
+                format!("the ray buffers expanded {expanded} of {} jobs", self.jobs),
+            );
+            law(
+                taken == descs + self.balancer.work_items,
+                format!(
+                    "the ray buffers took {taken} descriptors, {descs} made + {} work-items",
+                    self.balancer.work_items
+                ),
+            );
+        }
+        for (i, c) in cl.iter().enumerate() {
+            let s = &c.icu;
+            law(
+                s.busy_cycles + s.stalled_cycles + s.idle_cycles == self.cycles,
+                format!(
+                    "cluster {i}'s ICU: busy + stalled + idle ≠ {} cycles",
+                    self.cycles
+                ),
+            );
+            for (j, s) in c.ctus.iter().enumerate() {
+                law(
+                    s.busy_cycles + s.stalled_cycles + s.idle_cycles == self.cycles,
+                    format!(
+                        "cluster {i} ctu {j}: busy + stalled + idle ≠ {} cycles",
+                        self.cycles
+                    ),
+                );
+                law(
+                    s.state_cycles.total() == self.cycles,
+                    format!(
+                        "cluster {i} ctu {j}: its state cycles ≠ {} cycles",
+                        self.cycles
+                    ),
+                );
+                law(
+                    s.join_wait_patches + s.join_wait_results <= s.state_cycles.join,
+                    format!("cluster {i} ctu {j}: join waits exceed its JOIN cycles"),
+                );
+            }
+        }
+        broken
     }
 }
 

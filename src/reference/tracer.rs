@@ -36,7 +36,7 @@
 //! the same patch, the same bits of t, the same cell, nonempty-cell and test counts —
 //! because each ray runs the one-ray walk's operations in the one-ray walk's order. It is
 //! the bulk entry point (`cast` goes through it), tested equal to the one-ray path on every
-//! committed scene and stability case (tests/grid_vs_brute.rs). Each ray still walks on its
+//! committed scene and stability case (tests/it/grid_vs_brute.rs). Each ray still walks on its
 //! own: issue 36 measured the packet forms against it on one thread (the Cornell box and the
 //! Cornell room at 1,183 and 21,175 patches, 969 rays from 50 sources) and all were slower —
 //! four rays' walks interleaved in lanes by 38–57 %, the DDA step on selects instead of the

@@ -10,7 +10,7 @@
 //! scene and every stability case at the paper's ray count from several sources, and over
 //! generated slanted and millimetre rooms.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use proptest::prelude::*;

@@ -2,7 +2,7 @@
 //! the float reference on every committed scene (every source of scene1, 50 of scene2);
 //! brute force and grid traversal agree exactly; 0 leaks and 0 double hits on stress-edges.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use rand::{Rng, SeedableRng};

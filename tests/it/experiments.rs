@@ -4,7 +4,7 @@
 //! byte-identical across runs, the speedup at P = 1 is exactly 1 and no run beats its
 //! resource bound.
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 use shellsim::experiment::{

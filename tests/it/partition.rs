@@ -4,7 +4,7 @@
 //! fewer patches than ray-by-ray casting; stress-skewed is badly balanced; the CLI's
 //! outputs, errors and determinism.
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 use shellsim::partition::angles::{AngleBox, Angles};

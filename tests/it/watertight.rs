@@ -2,7 +2,7 @@
 //! exactly one of the patches that share that edge or vertex (no leak, no double hit), and
 //! the traced nearest hit is never beyond the aimed-at point.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use rand::{Rng, SeedableRng};

@@ -5,7 +5,7 @@
 //! statistics as the original. The hardware works in units of the scene's largest extent,
 //! so it sees the same numbers.
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use shellsim::machine::run::run;

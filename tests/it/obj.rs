@@ -7,7 +7,7 @@
 //! radiosity CSV; `--flip` turns faces that face outward; bad input exits 2 naming the
 //! file, the line and the face, or the unknown name.
 
-mod common;
+use crate::common;
 
 use shellsim::machine::run::run;
 use shellsim::reference::orient::outward_faces;

@@ -3,7 +3,7 @@
 //! the check classes), the solution (the grey box's analytic power, Gauss-Seidel against
 //! shooting), thread-count independence through the CLI, the PNG decoded, bad input.
 
-mod common;
+use crate::common;
 
 use shellsim::fixed::check::check;
 use shellsim::fixed::records::HostFixed;

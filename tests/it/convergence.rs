@@ -7,7 +7,7 @@
 //! (fitted constants 0.36–0.67). From an area, origins and directions are stratified apart
 //! and paired at random, so the 4-D estimator is only as good as binomial (measured 0.55–1.2×).
 
-mod common;
+use crate::common;
 
 use glam::DVec3;
 use shellsim::reference::analytic;

@@ -1,12 +1,16 @@
 //! The cycle-level machine: per-ray results equal the untimed fixed-point model over a
-//! matrix of scenes × clusters × CTUs × arbiter × buffers × cycle jump, one `#[test]` per
-//! cell (`cargo test --test machine scene1::c4::k2::round_robin::small::jump` runs one);
-//! ticking units in reverse or shuffled order changes nothing, with balancing off and on;
-//! conservation of jobs, results and loads.
+//! matrix of scenes × clusters × CTUs × arbiter × buffers × cycle jump (a flat table of
+//! cases; `SHELLSIM_CASE=scene1/c4/k2 cargo test --release --test it machine::` runs the
+//! cases whose name holds the text); ticking units in reverse or shuffled order changes
+//! nothing, with balancing off and on; conservation of jobs, results and loads. Every
+//! failing case prints the `shellsim run` command that repeats it and leaves its --hw file,
+//! waveform and GTKWave save file under target/tmp/failures/ (`common::Evidence`).
 
-mod common;
+use crate::common;
 
-use common::{assert_same_run, check_variant, config, run_variant, spec, Levers, Variant};
+use common::{
+    assert_same_run, check_variant, config, run_cases, spec, Evidence, Levers, MachineRun, Variant,
+};
 use shellsim::machine::run::run;
 use shellsim_hw::config::{ArbiterPolicy, JobSource};
 use shellsim_hw::machine::TickOrder;
@@ -33,148 +37,143 @@ const fn cell(
     }
 }
 
-/// One `#[test]` per cell of clusters 1/2/4/8 × CTUs 1/2/4 × both arbiters × small and
-/// paper buffers × cycle jump on and off, in nested modules named by the knobs.
-macro_rules! full_matrix {
-    ($($scene:ident => $file:literal),* $(,)?) => {$(
-        mod $scene {
-            use super::*;
-            full_matrix!(@c $file; c1 1, c2 2, c4 4, c8 8);
-        }
-    )*};
-    (@c $file:literal; $($c:ident $cn:literal),*) => {$(
-        mod $c {
-            use super::*;
-            full_matrix!(@k $file, $cn; k1 1, k2 2, k4 4);
-        }
-    )*};
-    (@k $file:literal, $cn:literal; $($k:ident $kn:literal),*) => {$(
-        mod $k {
-            use super::*;
-            full_matrix!(@a $file, $cn, $kn; round_robin RoundRobin, fixed_priority FixedPriority);
-        }
-    )*};
-    (@a $file:literal, $cn:literal, $kn:literal; $($a:ident $an:ident),*) => {$(
-        mod $a {
-            use super::*;
-            full_matrix!(@b $file, $cn, $kn, $an; small true, paper false);
-        }
-    )*};
-    (@b $file:literal, $cn:literal, $kn:literal, $an:ident; $($b:ident $bn:literal),*) => {$(
-        mod $b {
-            use super::*;
-            full_matrix!(@j $file, $cn, $kn, $an, $bn; jump true, step false);
-        }
-    )*};
-    (@j $file:literal, $cn:literal, $kn:literal, $an:ident, $bn:literal; $($j:ident $jn:literal),*) => {$(
-        #[test]
-        fn $j() {
-            check_variant($file, &cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn));
-        }
-    )*};
-}
+/// The knobs the matrix turns, one row per cell: clusters, CTUs, arbiter, small buffers,
+/// cycle jump.
+type Row = (u32, u32, ArbiterPolicy, bool, bool);
 
-full_matrix! {
-    scene1 => "scene1.json",
-    cornell => "cornell.json",
-}
-
-/// One `#[test]` per listed cell, and the cells as `CELLS` for the coverage check.
-macro_rules! cells {
-    ($file:literal; $($name:ident => $cn:literal, $kn:literal, $an:ident, $bn:literal, $jn:literal;)*) => {
-        pub const CELLS: &[Variant] = &[$(cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn)),*];
-        $(
-            #[test]
-            fn $name() {
-                check_variant($file, &cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn));
-            }
-        )*
-    };
-}
+use ArbiterPolicy::{FixedPriority as Fp, RoundRobin as Rr};
 
 /// Every seventh cell of the full matrix: 14 cells that take every value of every knob.
-macro_rules! sampled_matrix {
-    ($($scene:ident => $file:literal),* $(,)?) => {$(
-        pub mod $scene {
-            use super::*;
-            cells! { $file;
-                c1_k1_round_robin_small_jump => 1, 1, RoundRobin, true, true;
-                c1_k1_fixed_priority_paper_step => 1, 1, FixedPriority, false, false;
-                c1_k2_fixed_priority_paper_jump => 1, 2, FixedPriority, false, true;
-                c1_k4_fixed_priority_small_step => 1, 4, FixedPriority, true, false;
-                c2_k1_fixed_priority_small_jump => 2, 1, FixedPriority, true, true;
-                c2_k2_round_robin_paper_step => 2, 2, RoundRobin, false, false;
-                c2_k4_round_robin_paper_jump => 2, 4, RoundRobin, false, true;
-                c4_k1_round_robin_small_step => 4, 1, RoundRobin, true, false;
-                c4_k2_round_robin_small_jump => 4, 2, RoundRobin, true, true;
-                c4_k2_fixed_priority_paper_step => 4, 2, FixedPriority, false, false;
-                c4_k4_fixed_priority_paper_jump => 4, 4, FixedPriority, false, true;
-                c8_k1_fixed_priority_small_step => 8, 1, FixedPriority, true, false;
-                c8_k2_fixed_priority_small_jump => 8, 2, FixedPriority, true, true;
-                c8_k4_round_robin_paper_step => 8, 4, RoundRobin, false, false;
+const SAMPLED: [Row; 14] = [
+    (1, 1, Rr, true, true),
+    (1, 1, Fp, false, false),
+    (1, 2, Fp, false, true),
+    (1, 4, Fp, true, false),
+    (2, 1, Fp, true, true),
+    (2, 2, Rr, false, false),
+    (2, 4, Rr, false, true),
+    (4, 1, Rr, true, false),
+    (4, 2, Rr, true, true),
+    (4, 2, Fp, false, false),
+    (4, 4, Fp, false, true),
+    (8, 1, Fp, true, false),
+    (8, 2, Fp, true, true),
+    (8, 4, Rr, false, false),
+];
+
+/// The full matrix: clusters 1/2/4/8 × CTUs 1/2/4 × both arbiters × small and paper
+/// buffers × cycle jump on and off (96 cells).
+fn full() -> Vec<Row> {
+    let mut rows = Vec::new();
+    for c in [1, 2, 4, 8] {
+        for k in [1, 2, 4] {
+            for a in [Rr, Fp] {
+                for small in [true, false] {
+                    for jump in [true, false] {
+                        rows.push((c, k, a, small, jump));
+                    }
+                }
             }
         }
-    )*};
+    }
+    rows
 }
 
-sampled_matrix! {
-    scene2 => "scene2.json",
-    stress_edges => "stress-edges.json",
-    stress_grazing => "stress-grazing.json",
-    stress_skewed => "stress-skewed.json",
+/// The machine matrix as a flat table of cases: scene, then its cells (the full product on
+/// scene1 and cornell, the sampled cells elsewhere, two hand-picked on the dense stress
+/// scene). Each case is `check_variant`'s (equality with the untimed model, conservation),
+/// named `scene/c4/k2/round_robin/small/jump`; `SHELLSIM_CASE=scene1/c4/k2 cargo test
+/// --release --test it machine::matrix` runs those alone.
+fn matrix() -> Vec<(&'static str, Variant)> {
+    let dense: [Row; 2] = [(4, 2, Rr, false, true), (2, 1, Fp, true, false)];
+    let table: [(&str, Vec<Row>); 7] = [
+        ("scene1.json", full()),
+        ("cornell.json", full()),
+        ("scene2.json", SAMPLED.to_vec()),
+        ("stress-edges.json", SAMPLED.to_vec()),
+        ("stress-grazing.json", SAMPLED.to_vec()),
+        ("stress-skewed.json", SAMPLED.to_vec()),
+        ("stress-dense.json", dense.to_vec()),
+    ];
+    table
+        .into_iter()
+        .flat_map(|(f, rows)| {
+            rows.into_iter()
+                .map(move |(c, k, a, s, j)| (f, cell(c, k, a, s, j)))
+        })
+        .collect()
 }
 
-#[test]
-fn sampled_matrix_takes_every_value() {
-    let m = scene2::CELLS;
-    for c in [1, 2, 4, 8] {
-        assert!(m.iter().any(|v| v.clusters == c), "clusters {c}");
-    }
-    for k in [1, 2, 4] {
-        assert!(m.iter().any(|v| v.ctus == k), "ctus {k}");
-    }
-    assert!(m.iter().any(|v| v.jump) && m.iter().any(|v| !v.jump));
-    assert!(m.iter().any(|v| v.small_buffers) && m.iter().any(|v| !v.small_buffers));
-    for a in [ArbiterPolicy::RoundRobin, ArbiterPolicy::FixedPriority] {
-        assert!(m.iter().any(|v| v.arbiter == a), "{a:?}");
-    }
-    // Every sampled scene runs the same cells.
-    for other in [
-        stress_edges::CELLS,
-        stress_grazing::CELLS,
-        stress_skewed::CELLS,
-    ] {
-        assert_eq!(other, m);
-    }
+/// A case's name: the scene's stem, then the variant's.
+fn case_name(file: &str, v: &Variant) -> String {
+    format!("{}/{}", file.trim_end_matches(".json"), v.name())
 }
 
-mod stress_dense {
+/// One test per scene of the matrix, so they run in parallel with the rest of the suite.
+fn matrix_of(file: &str) {
+    let cases: Vec<_> = matrix().into_iter().filter(|(f, _)| *f == file).collect();
+    assert!(!cases.is_empty(), "{file} has no case");
+    run_cases(
+        &cases,
+        |(f, v)| case_name(f, v),
+        |name, (f, v)| {
+            check_variant(name, f, v);
+        },
+    );
+}
+
+mod matrix {
     use super::*;
-
-    #[test]
-    fn c4_k2_round_robin_paper_jump() {
-        check_variant("stress-dense.json", &Variant::PAPER);
+    testcases! { matrix_of;
+        scene1 => "scene1.json";
+        cornell => "cornell.json";
+        scene2 => "scene2.json";
+        stress_edges => "stress-edges.json";
+        stress_grazing => "stress-grazing.json";
+        stress_skewed => "stress-skewed.json";
+        stress_dense => "stress-dense.json";
     }
 
     #[test]
-    fn c2_k1_fixed_priority_small_step() {
-        let v = cell(2, 1, ArbiterPolicy::FixedPriority, true, false);
-        check_variant("stress-dense.json", &v);
+    fn every_committed_scene_is_in_the_matrix_and_the_sample_takes_every_value() {
+        let m = matrix();
+        assert_eq!(m.len(), 2 * 96 + 4 * 14 + 2);
+        for f in common::COMMITTED {
+            assert!(m.iter().any(|(g, _)| *g == f), "{f}");
+        }
+        let s = SAMPLED;
+        for c in [1, 2, 4, 8] {
+            assert!(s.iter().any(|r| r.0 == c), "clusters {c}");
+        }
+        for k in [1, 2, 4] {
+            assert!(s.iter().any(|r| r.1 == k), "ctus {k}");
+        }
+        for a in [Rr, Fp] {
+            assert!(s.iter().any(|r| r.2 == a), "{a:?}");
+        }
+        for b in [true, false] {
+            assert!(s.iter().any(|r| r.3 == b) && s.iter().any(|r| r.4 == b));
+        }
+        // Every sampled cell is a cell of the full matrix, and every name is one case's.
+        assert!(s.iter().all(|r| full().contains(r)));
+        let names: std::collections::BTreeSet<_> = m.iter().map(|(f, v)| case_name(f, v)).collect();
+        assert_eq!(names.len(), m.len());
     }
 }
 
 /// Slow DDA steps and a slow memory leave whole stretches where all units wait: the jump
 /// skips them and changes no statistic.
 fn the_cycle_jump_changes_no_statistic(file: &str) {
-    let run_with = |jump: bool| {
+    let with = |jump: bool| {
         let mut c = config("paper");
         c.machine.dda_cycles_per_step = 20;
         c.machine.memory_latency = 60;
         c.machine.cycle_jump = jump;
-        let scene = common::load(file);
-        run(&scene, Path::new(file), &c, &spec(), None).unwrap()
+        MachineRun::new(file, c, spec())
     };
-    let (a, b) = (run_with(true), run_with(false));
+    let (ra, rb) = (with(true), with(false));
+    let _e = Evidence::for_test(&[&ra, &rb]);
+    let (a, b) = (ra.run(), rb.run());
     assert!(
         a.stats.skipped_cycles > a.stats.cycles / 10,
         "{file}: the jump skipped only {} of {}",
@@ -193,29 +192,33 @@ mod cycle_jump {
     }
 }
 
-/// Ticking the units in another order changes no statistic and no hit. With balancing on,
-/// the run must move work-items between clusters, so the balancer's links are exercised.
-fn tick_order_changes_nothing(file: &str, balance: bool, order: TickOrder) {
-    let v = Variant {
-        clusters: if balance { 4 } else { 2 },
-        ctus: 2,
-        arbiter: ArbiterPolicy::RoundRobin,
-        small_buffers: !balance,
-        jump: false,
-        balance: Some(balance),
-        job_source: JobSource::Ctu,
-        overlap_joins: false,
-        levers: Levers::PAPER,
-    };
-    let fwd = run_variant(file, &v, TickOrder::Forward);
-    if balance {
+/// Two runs of `v` on `file`, forward and in `order`, give the same statistics and hits;
+/// with balancing on, the run must move work-items between clusters, so the balancer's
+/// links are exercised.
+fn same_in_order(file: &str, v: &Variant, order: TickOrder) {
+    let (fwd, other) = (
+        MachineRun::of(file, v, TickOrder::Forward),
+        MachineRun::of(file, v, order),
+    );
+    let _e = Evidence::for_test(&[&fwd, &other]);
+    let a = fwd.run();
+    if v.balance == Some(true) {
         assert!(
-            fwd.stats.balancer.work_items > 0,
+            a.stats.balancer.work_items > 0,
             "{file}: no work-item moved, the balancer is not exercised"
         );
     }
-    let other = run_variant(file, &v, order);
-    assert_same_run(&other, &fwd, &format!("{file} {order:?} balance {balance}"));
+    assert_same_run(&other.run(), &a, &format!("{file} {order:?} {}", v.name()));
+}
+
+/// Ticking the units in another order changes no statistic and no hit, with balancing off
+/// (2 × 2, small buffers) and on (4 × 2).
+fn tick_order_changes_nothing(file: &str, balance: bool, order: TickOrder) {
+    let v = Variant {
+        balance: Some(balance),
+        ..cell(if balance { 4 } else { 2 }, 2, Rr, !balance, false)
+    };
+    same_in_order(file, &v, order);
 }
 
 mod tick_order {
@@ -237,16 +240,16 @@ mod tick_order {
 
 #[test]
 fn two_runs_give_identical_json() {
-    let a = run_variant("scene2.json", &Variant::PAPER, TickOrder::Forward);
-    let b = run_variant("scene2.json", &Variant::PAPER, TickOrder::Forward);
-    assert_same_run(&a, &b, "scene2, paper.toml, twice");
+    let r = MachineRun::of("scene2.json", &Variant::PAPER, TickOrder::Forward);
+    let _e = Evidence::for_test(&[&r, &r]);
+    assert_same_run(&r.run(), &r.run(), "scene2, paper.toml, twice");
 }
 
 #[test]
 fn the_watchdog_stops_a_run_that_makes_no_progress() {
     // A DDA step longer than the watchdog's patience: nothing moves for 1000 cycles. A file
     // with this is refused (`check_watchdog`: the watchdog must outlast the longest legal
-    // wait; tests/watchdog.rs); built in code, it stands in for a real deadlock to test
+    // wait; tests/it/watchdog.rs); built in code, it stands in for a real deadlock to test
     // the report.
     let mut c = config("small");
     c.machine.dda_cycles_per_step = 1000;
@@ -359,112 +362,139 @@ fn waveforms_are_the_same_with_and_without_the_cycle_jump() {
     assert_eq!(logs[0].len(), logs[1].len());
 }
 
-/// Issue 14's machine variants (`job_source`, `overlap_joins`) on a subset of the matrix
-/// that takes every value of every knob, one `#[test]` per cell, with balancing off and on:
-/// equality with the untimed model and conservation (`check_variant`).
-macro_rules! variant_cells {
-    ($($name:ident => $file:literal, $cn:literal, $kn:literal, $an:ident, $bn:literal, $jn:literal, $bal:literal, $src:ident, $ov:literal;)*) => {$(
-        #[test]
-        fn $name() {
+/// Issue 14's machine variants (`job_source`, `overlap_joins`) as a flat table of cases on
+/// cells that take every value of every knob, with balancing off and on: equality with the
+/// untimed model and conservation (`check_variant`); with balancing on and more than one
+/// cluster, work moved between clusters.
+#[rustfmt::skip]
+const VARIANTS: [(&str, Row, bool, JobSource, bool); 19] = {
+    use JobSource::{Bundle as B, Ctu as C};
+    [
+        ("scene1.json", (1, 1, Rr, true, true), false, B, false),
+        ("scene1.json", (2, 4, Fp, false, false), true, B, false),
+        ("scene1.json", (8, 2, Rr, true, true), true, B, false),
+        ("cornell.json", (4, 1, Rr, false, true), true, B, false),
+        ("cornell.json", (4, 2, Fp, true, false), false, B, false),
+        ("scene2.json", (8, 2, Rr, false, true), true, B, false),
+        ("stress-skewed.json", (4, 2, Rr, false, true), true, B, false),
+        ("scene1.json", (1, 2, Rr, true, false), false, C, true),
+        ("scene1.json", (4, 4, Fp, false, true), true, C, true),
+        ("cornell.json", (8, 1, Rr, false, true), false, C, true),
+        ("scene2.json", (2, 2, Rr, false, true), false, C, true),
+        ("scene1.json", (1, 4, Rr, false, true), false, B, true),
+        ("scene1.json", (8, 2, Fp, true, false), true, B, true),
+        ("cornell.json", (2, 1, Fp, false, true), true, B, true),
+        ("cornell.json", (4, 2, Rr, true, true), false, B, true),
+        ("scene2.json", (8, 2, Rr, false, true), true, B, true),
+        ("stress-grazing.json", (4, 2, Rr, false, false), true, B, true),
+        ("stress-edges.json", (2, 4, Rr, true, true), true, B, true),
+        ("stress-dense.json", (4, 2, Rr, false, true), true, B, true),
+    ]
+};
+
+#[test]
+fn variants() {
+    let cases: Vec<(&str, Variant)> = VARIANTS
+        .iter()
+        .map(|&(f, (c, k, a, s, j), bal, src, ov)| {
             let v = Variant {
-                balance: Some($bal),
-                ..cell($cn, $kn, ArbiterPolicy::$an, $bn, $jn)
+                balance: Some(bal),
+                ..cell(c, k, a, s, j)
+            };
+            (f, v.with(src, ov))
+        })
+        .collect();
+    run_cases(
+        &cases,
+        |(f, v)| case_name(f, v),
+        |name, (f, v)| {
+            let out = check_variant(name, f, v);
+            if v.balance == Some(true) && v.clusters > 1 {
+                assert!(
+                    out.stats.balancer.work_items > 0,
+                    "{name}: no work-item moved"
+                );
             }
-            .with(JobSource::$src, $ov);
-            let out = check_variant($file, &v);
-            if $bal && $cn > 1 {
-                // Balancing is exercised: work moved between clusters.
-                assert!(out.stats.balancer.work_items > 0, "{}", v.repro($file));
-            }
-        }
-    )*};
+        },
+    );
 }
 
-mod variants {
-    use super::*;
-    variant_cells! {
-        bundle_scene1_c1_k1_small_jump => "scene1.json", 1, 1, RoundRobin, true, true, false, Bundle, false;
-        bundle_scene1_c2_k4_paper_step => "scene1.json", 2, 4, FixedPriority, false, false, true, Bundle, false;
-        bundle_scene1_c8_k2_small_jump => "scene1.json", 8, 2, RoundRobin, true, true, true, Bundle, false;
-        bundle_cornell_c4_k1_paper_jump => "cornell.json", 4, 1, RoundRobin, false, true, true, Bundle, false;
-        bundle_cornell_c4_k2_small_step => "cornell.json", 4, 2, FixedPriority, true, false, false, Bundle, false;
-        bundle_scene2_c8_k2_paper_jump => "scene2.json", 8, 2, RoundRobin, false, true, true, Bundle, false;
-        bundle_stress_skewed_c4_k2_paper_jump => "stress-skewed.json", 4, 2, RoundRobin, false, true, true, Bundle, false;
-        overlap_scene1_c1_k2_small_step => "scene1.json", 1, 2, RoundRobin, true, false, false, Ctu, true;
-        overlap_scene1_c4_k4_paper_jump => "scene1.json", 4, 4, FixedPriority, false, true, true, Ctu, true;
-        overlap_cornell_c8_k1_paper_jump => "cornell.json", 8, 1, RoundRobin, false, true, false, Ctu, true;
-        overlap_scene2_c2_k2_paper_jump => "scene2.json", 2, 2, RoundRobin, false, true, false, Ctu, true;
-        bundle_overlap_scene1_c1_k4_paper_jump => "scene1.json", 1, 4, RoundRobin, false, true, false, Bundle, true;
-        bundle_overlap_scene1_c8_k2_small_step => "scene1.json", 8, 2, FixedPriority, true, false, true, Bundle, true;
-        bundle_overlap_cornell_c2_k1_paper_jump => "cornell.json", 2, 1, FixedPriority, false, true, true, Bundle, true;
-        bundle_overlap_cornell_c4_k2_small_jump => "cornell.json", 4, 2, RoundRobin, true, true, false, Bundle, true;
-        bundle_overlap_scene2_c8_k2_paper_jump => "scene2.json", 8, 2, RoundRobin, false, true, true, Bundle, true;
-        bundle_overlap_stress_grazing_c4_k2_paper_step => "stress-grazing.json", 4, 2, RoundRobin, false, false, true, Bundle, true;
-        bundle_overlap_stress_edges_c2_k4_small_jump => "stress-edges.json", 2, 4, RoundRobin, true, true, true, Bundle, true;
-        bundle_overlap_stress_dense_c4_k2_paper_jump => "stress-dense.json", 4, 2, RoundRobin, false, true, true, Bundle, true;
-    }
-}
+/// A lever case: scene, (clusters, CTUs, small buffers, jump), job source, overlapped joins,
+/// the levers.
+type LeverRow = (
+    &'static str,
+    (u32, u32, bool, bool),
+    JobSource,
+    bool,
+    Levers,
+);
 
 /// Issue 36's levers (`scan_ids_per_cycle`, `descriptor_order`, `partition_granularity`)
 /// over cells that take every value of each, under both job sources and with joins
-/// overlapped or not, balancing on: equality with the untimed model and conservation
-/// (`check_variant`); where the lever changes the machine's timing, the cycles differ from
-/// the same cell without it.
-macro_rules! lever_cells {
-    ($($name:ident => $file:literal, $cn:literal, $kn:literal, $bn:literal, $jn:literal, $src:ident, $ov:literal, $scan:literal, $lf:literal, $ray:literal;)*) => {$(
-        #[test]
-        fn $name() {
+/// overlapped or not, balancing on, round-robin: equality with the untimed model and
+/// conservation (`check_variant`); the cycles differ from the same cell without the levers;
+/// no CTU scanned more ids than `scan_ids_per_cycle` a scanning cycle.
+#[rustfmt::skip]
+const LEVERS: [LeverRow; 9] = {
+    use JobSource::{Bundle as B, Ctu as C};
+    const fn l(scan_ids_per_cycle: u32, largest_first: bool, ray_cuts: bool) -> Levers {
+        Levers { scan_ids_per_cycle, largest_first, ray_cuts }
+    }
+    [
+        ("scene1.json", (2, 2, false, true), C, false, l(2, false, false)),
+        ("cornell.json", (4, 2, true, false), B, true, l(4, false, false)),
+        ("scene2.json", (8, 2, false, true), C, true, l(3, false, false)),
+        ("cornell.json", (4, 4, false, true), B, false, l(1, true, false)),
+        ("scene2.json", (8, 2, false, true), B, true, l(2, true, false)),
+        ("scene2.json", (4, 2, false, false), C, false, l(1, false, true)),
+        ("stress-skewed.json", (8, 2, false, true), B, true, l(1, false, true)),
+        ("stress-edges.json", (2, 4, true, true), B, true, l(8, true, true)),
+        ("cornell.json", (1, 1, false, false), C, false, l(64, true, true)),
+    ]
+};
+
+#[test]
+fn levers() {
+    let cases: Vec<(&str, Variant, Variant)> = LEVERS
+        .iter()
+        .map(|&(f, (c, k, s, j), src, ov, levers)| {
             let plain = Variant {
                 balance: Some(true),
-                ..cell($cn, $kn, ArbiterPolicy::RoundRobin, $bn, $jn)
+                ..cell(c, k, Rr, s, j)
             }
-            .with(JobSource::$src, $ov);
-            let v = Variant {
-                levers: Levers {
-                    scan_ids_per_cycle: $scan,
-                    largest_first: $lf,
-                    ray_cuts: $ray,
-                },
-                ..plain
-            };
-            let out = check_variant($file, &v);
-            let base = run_variant($file, &plain, TickOrder::Forward);
-            assert_ne!(out.stats.cycles, base.stats.cycles, "{}: the levers changed no cycle", v.repro($file));
-            // Every id is looked at once per visit of its cell, at most scan_ids_per_cycle a cycle.
+            .with(src, ov);
+            (f, plain, Variant { levers, ..plain })
+        })
+        .collect();
+    run_cases(
+        &cases,
+        |(f, _, v)| case_name(f, v),
+        |name, (f, plain, v)| {
+            let base = MachineRun::of(f, plain, TickOrder::Forward);
+            let _e = Evidence::new(&format!("{name}/without"), &[&base]);
+            let out = check_variant(name, f, v);
+            assert_ne!(
+                out.stats.cycles,
+                base.run().stats.cycles,
+                "{name}: the levers changed no cycle"
+            );
+            let scan = v.levers.scan_ids_per_cycle as u64;
             for c in out.stats.clusters.iter().flat_map(|c| &c.ctus) {
                 let scanning = c.state_cycles.scan + c.state_cycles.request;
-                assert!(scanning * $scan >= c.ids_scanned, "{}: {c:?}", v.repro($file));
+                assert!(scanning * scan >= c.ids_scanned, "{name}: {c:?}");
             }
-        }
-    )*};
-}
-
-mod levers {
-    use super::*;
-    lever_cells! {
-        scan2_scene1_c2_k2_ctu => "scene1.json", 2, 2, false, true, Ctu, false, 2, false, false;
-        scan4_cornell_c4_k2_bundle_overlap => "cornell.json", 4, 2, true, false, Bundle, true, 4, false, false;
-        scan3_scene2_c8_k2_ctu_overlap => "scene2.json", 8, 2, false, true, Ctu, true, 3, false, false;
-        largest_cornell_c4_k4_bundle => "cornell.json", 4, 4, false, true, Bundle, false, 1, true, false;
-        largest_scene2_c8_k2_bundle_overlap => "scene2.json", 8, 2, false, true, Bundle, true, 2, true, false;
-        ray_cuts_scene2_c4_k2_ctu => "scene2.json", 4, 2, false, false, Ctu, false, 1, false, true;
-        ray_cuts_stress_skewed_c8_k2_bundle_overlap => "stress-skewed.json", 8, 2, false, true, Bundle, true, 1, false, true;
-        all_stress_edges_c2_k4_bundle_overlap => "stress-edges.json", 2, 4, true, true, Bundle, true, 8, true, true;
-        all_cornell_c1_k1_ctu => "cornell.json", 1, 1, false, false, Ctu, false, 64, true, true;
-    }
+        },
+    );
 }
 
 /// Tick order changes nothing under a variant, with balancing on (work-items move).
 fn variant_tick_order(file: &str, job_source: JobSource, overlap: bool, order: TickOrder) {
     let v = Variant {
         balance: Some(true),
-        ..cell(4, 2, ArbiterPolicy::RoundRobin, false, false)
+        ..cell(4, 2, Rr, false, false)
     }
     .with(job_source, overlap);
-    let fwd = run_variant(file, &v, TickOrder::Forward);
-    assert!(fwd.stats.balancer.work_items > 0, "{}", v.repro(file));
-    let other = run_variant(file, &v, order);
-    assert_same_run(&other, &fwd, &format!("{file} {order:?} {v:?}"));
+    same_in_order(file, &v, order);
 }
 
 mod variant_tick_order {
@@ -482,18 +512,19 @@ mod variant_tick_order {
 /// The cycle jump changes no statistic under the bundle variant, joins overlapped or not.
 #[test]
 fn the_cycle_jump_changes_no_statistic_with_the_variants() {
-    let run_with = |jump: bool, overlap: bool| {
-        let mut c = config("paper");
-        c.machine.dda_cycles_per_step = 20;
-        c.machine.memory_latency = 60;
-        c.machine.cycle_jump = jump;
-        c.machine.job_source = JobSource::Bundle;
-        c.machine.overlap_joins = overlap;
-        let scene = common::load("scene1.json");
-        run(&scene, Path::new("scene1.json"), &c, &spec(), None).unwrap()
-    };
     for overlap in [false, true] {
-        let (a, b) = (run_with(true, overlap), run_with(false, overlap));
+        let with = |jump: bool| {
+            let mut c = config("paper");
+            c.machine.dda_cycles_per_step = 20;
+            c.machine.memory_latency = 60;
+            c.machine.cycle_jump = jump;
+            c.machine.job_source = JobSource::Bundle;
+            c.machine.overlap_joins = overlap;
+            MachineRun::new("scene1.json", c, spec())
+        };
+        let (ra, rb) = (with(true), with(false));
+        let _e = Evidence::for_test(&[&ra, &rb]);
+        let (a, b) = (ra.run(), rb.run());
         assert!(a.stats.skipped_cycles > 0);
         assert_same_run(&a, &b, &format!("scene1 bundle, overlap_joins {overlap}"));
     }
@@ -708,4 +739,56 @@ fn stages_are_the_icus_own(shifts: bool) {
         "{} shifts",
         p.shift_entries
     );
+}
+
+/// `RunStats::verdict` (what `shellsim run` exits 1 on) catches a counter that breaks a
+/// conservation law, naming it, and passes the run it came from.
+#[test]
+fn the_verdict_names_a_broken_conservation_law() {
+    let out = MachineRun::of("scene1.json", &Variant::PAPER, TickOrder::Forward).run();
+    assert!(out.stats.broken_laws().is_empty());
+    out.stats.verdict().unwrap();
+    let mut s = out.stats.clone();
+    s.clusters[1].icu.results_out -= 1;
+    s.memory.grants += 1;
+    s.clusters[0].ctus[1].idle_cycles += 1;
+    let broken = s.broken_laws();
+    assert_eq!(broken.len(), 3, "{broken:?}");
+    assert!(broken[0].contains("out"), "{broken:?}");
+    assert!(broken[1].contains("grants"), "{broken:?}");
+    assert!(broken[2].starts_with("cluster 0 ctu 1"), "{broken:?}");
+    let e = s.verdict().unwrap_err().to_string();
+    assert!(e.contains("3 conservation law(s)"), "{e}");
+}
+
+/// `--tick-order` takes forward, reverse and shuffled:SEED, and refuses anything else with
+/// exit status 2 naming the value.
+#[test]
+fn tick_order_flag() {
+    let run = |order: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_shellsim"))
+            .args([
+                "run",
+                "--scene",
+                "scenes/scene1.json",
+                "--ratio",
+                "1",
+                "--tick-order",
+                order,
+            ])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap()
+    };
+    for ok in ["reverse", "shuffled:7"] {
+        let o = run(ok);
+        assert!(
+            o.status.success(),
+            "{ok}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let o = run("sideways");
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("sideways"));
 }

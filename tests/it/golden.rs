@@ -1,12 +1,11 @@
 //! Regression goldens: the key statistics of the cycle-level machine (cycles, busy / idle /
 //! stalled cycles per unit, patch loads, jobs, memory traffic) per committed scene ×
 //! configuration, compared exactly with tests/golden/*.json. `UPDATE_GOLDEN=1 cargo test
-//! --release --test golden` rewrites them on purpose (review the diff before committing).
+//! --release --test it golden::` rewrites them on purpose (review the diff before committing).
 
-mod common;
+use crate::common;
 
 use serde_json::{json, Value};
-use shellsim::machine::run::run;
 use shellsim_hw::config::JobSource;
 use std::path::{Path, PathBuf};
 
@@ -48,7 +47,6 @@ fn golden_variant(scene_file: &str, config: &str, job_source: JobSource, overlap
 }
 
 fn golden_of(scene_file: &str, config: &str, variant: Option<(JobSource, bool)>) {
-    let scene = common::load(scene_file);
     let mut cfg = common::config(config);
     let mut suffix = String::new();
     if let Some((source, overlap)) = variant {
@@ -60,7 +58,9 @@ fn golden_of(scene_file: &str, config: &str, variant: Option<(JobSource, bool)>)
             if overlap { "_overlap" } else { "" }
         );
     }
-    let out = run(&scene, Path::new(scene_file), &cfg, &common::spec(), None).unwrap();
+    let r = common::MachineRun::new(scene_file, cfg, common::spec());
+    let _e = common::Evidence::for_test(&[&r]);
+    let out = r.run();
     assert_eq!(out.stats.mismatches_vs_fixed, 0);
     let text = serde_json::to_string_pretty(&key_figures(&out.stats)).unwrap() + "\n";
     let name = format!(
@@ -77,7 +77,7 @@ fn golden_of(scene_file: &str, config: &str, variant: Option<(JobSource, bool)>)
     }
     let want = std::fs::read_to_string(&path).unwrap_or_else(|e| {
         panic!(
-            "{}: {e}; create it with UPDATE_GOLDEN=1 cargo test --release --test golden",
+            "{}: {e}; create it with UPDATE_GOLDEN=1 cargo test --release --test it golden::",
             path.display()
         )
     });
@@ -89,7 +89,7 @@ fn golden_of(scene_file: &str, config: &str, variant: Option<(JobSource, bool)>)
             .unwrap_or(0);
         panic!(
             "{name} changed (first difference at line {}: golden {:?}, now {:?}).\n\
-             If the change is intended: UPDATE_GOLDEN=1 cargo test --release --test golden, and review the diff.",
+             If the change is intended: UPDATE_GOLDEN=1 cargo test --release --test it golden::, and review the diff.",
             first + 1,
             want.lines().nth(first),
             text.lines().nth(first)

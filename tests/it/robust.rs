@@ -5,7 +5,7 @@
 //! interrupts. Device nodes, FIFOs and symlinks are made in a temporary directory, never
 //! the real /dev.
 
-mod common;
+use crate::common;
 
 use std::os::unix::fs::FileTypeExt;
 use std::path::{Path, PathBuf};

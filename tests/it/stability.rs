@@ -5,8 +5,7 @@
 //! another patch is warned about by name and every hit on that patch is classed. The
 //! committed docs/stability.* regenerate byte for byte with the command they name.
 
-#[macro_use]
-mod common;
+use crate::common;
 
 use shellsim::fixed::records::HostFixed;
 use shellsim::stability::cases::generate_case;

@@ -6,7 +6,7 @@
 //! Reproduce a waveform by hand with
 //! `shellsim run --scene scenes/scene1.json --hw hw/configs/small.toml --ratio 1 --vcd waves/x.vcd`.
 
-mod common;
+use crate::common;
 
 use shellsim::machine::run::{RunSpec, RunStats};
 use shellsim::wave::{gtkw, sucl};

@@ -3,7 +3,7 @@
 //! bad specs and mismatched shards are refused with exit status 2 naming the file and the
 //! problem; the Slurm scripts hold the array, the shard commands and the dependency.
 
-mod common;
+use crate::common;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -99,7 +99,7 @@ fn same_results(a: &Path, b: &Path, how: &str) {
         let y = std::fs::read(b.join(f)).unwrap_or_else(|e| panic!("{}: {e}", b.join(f).display()));
         assert!(
             x == y,
-            "{f} differs between {} and {} ({how}); reproduce: cargo test --release --test explore",
+            "{f} differs between {} and {} ({how}); reproduce: cargo test --release --test it explore::",
             a.display(),
             b.display()
         );

@@ -9,20 +9,20 @@
 //! slower than [`CASE_LIMIT`] (a hang); an abort (an allocation the size of a declared
 //! count) kills the binary.
 //!
-//! **Sample and long run.** `cargo test --release --test fuzz` runs a seeded sample
+//! **Sample and long run.** `cargo test --release --test it fuzz::` runs a seeded sample
 //! (`sample` counts below; the seed is `FUZZ_SEED`, 37 by default) in well under a minute.
 //! The long run sets `FUZZ_CASES`, the cases per test (each parser has two tests, one per
 //! base file, so 2 × FUZZ_CASES per parser):
 //!
 //! ```text
-//! FUZZ_CASES=10000 cargo test --release --test fuzz -- --nocapture --test-threads 2
+//! FUZZ_CASES=10000 cargo test --release --test it fuzz:: -- --nocapture --test-threads 2
 //! ```
 //!
 //! Each test prints one row of the outcome table: parser, base, cases, panics, aborts,
 //! timeouts, exit 0 (valid), exit 2 (refused; not-UTF-8 input counted apart, as the
 //! loaders refuse it before parsing), and the slowest case.
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 use shellsim::scene::{obj, Scene};

@@ -2,7 +2,7 @@
 //! mismatches against the untimed model), and costs fewer bits than paper.toml; targets no
 //! machine can meet are refused with exit status 2 and a message saying what was tried.
 
-mod common;
+use crate::common;
 
 use shellsim::machine::run::run;
 use shellsim::size::{size, Against, SizeSpec};

@@ -1,7 +1,7 @@
 //! Enclosures: in scene1, scene2 and cornell, from every source tried no ray escapes and the
 //! form factors sum to 1; on cornell, reciprocity A_i·F_ij = A_j·F_ji within sampling error.
 
-mod common;
+use crate::common;
 
 use rayon::prelude::*;
 use shellsim::reference::cast::{form_factors, FormFactor};
