@@ -1,5 +1,6 @@
 //! ARCHITECTURE.md stays true where a test can tell: every repository path it names exists,
-//! and it is at most 300 lines (issue 35). (Its dependency rule is tests/layout.rs's.)
+//! its dependency rule names the layers and leaves tests/layout.rs checks, and it is at most
+//! 300 lines (issue 35).
 //!
 //! A path is a token that starts a word with a top-level folder of the repository (`src/`,
 //! `hw/`, `tests/`, `docs/`, …) or is a root file (`BENCHMARKS.md`), in prose, code spans and
@@ -301,4 +302,95 @@ fn a_path_that_does_not_exist_is_reported() {
     // A file named as a folder is not one.
     assert!(!exists(&root(), "src/lib.rs/"));
     assert!(exists(&root(), "tests/*.rs") && exists(&root(), "src/scene/"));
+}
+
+/// The layers and leaves ARCHITECTURE.md's dependency rule states: `(N) `a`, `b`; …` after
+/// "From the top:", and the code spans between "The leaves —" and the next "—".
+fn stated_rule(text: &str) -> (Vec<(String, u32)>, Vec<String>) {
+    let text = &text.split_whitespace().collect::<Vec<_>>().join(" ");
+    let spans = |s: &str| -> Vec<String> { code_spans(s).iter().map(|x| x.to_string()).collect() };
+    let from = text.find("From the top:").expect("the rule's layers");
+    let layers_text = &text[from..from + text[from..].find("The leaves").expect("the leaves")];
+    let mut layers = Vec::new();
+    for part in layers_text.split('(').skip(1) {
+        let (n, names) = part.split_once(')').expect("(N) names");
+        let n: u32 = n.trim().parse().expect("a layer number");
+        for name in spans(names) {
+            layers.push((name, n));
+        }
+    }
+    let at = text.find("The leaves —").expect("the leaves") + "The leaves —".len();
+    let leaves = spans(&text[at..at + text[at..].find('—').expect("the leaves' end")]);
+    (layers, leaves)
+}
+
+/// The `LAYERS` and `LEAVES` tests/layout.rs checks, read from its source text.
+fn checked_rule(source: &str) -> (Vec<(String, u32)>, Vec<String>) {
+    let block = |name: &str| -> &str {
+        let at = source
+            .find(name)
+            .unwrap_or_else(|| panic!("{name} in tests/layout.rs"));
+        let rest = &source[at..];
+        let open = rest.find("= &[").expect("a list") + 4;
+        &rest[open..open + rest[open..].find("];").expect("the list's end")]
+    };
+    let quoted =
+        |s: &str| -> Vec<String> { s.split('"').skip(1).step_by(2).map(String::from).collect() };
+    let layers = block("const LAYERS")
+        .split('(')
+        .skip(1)
+        .map(|t| {
+            let name = quoted(t).remove(0);
+            let n = t
+                .split(',')
+                .nth(1)
+                .and_then(|x| x.trim().trim_end_matches(')').trim().parse().ok());
+            (name, n.expect("a layer number"))
+        })
+        .collect();
+    (layers, quoted(block("const LEAVES")))
+}
+
+#[test]
+fn the_stated_dependency_rule_is_the_one_tests_layout_checks() {
+    let sorted = |(mut l, mut v): (Vec<(String, u32)>, Vec<String>)| {
+        l.sort();
+        v.sort();
+        (l, v)
+    };
+    let stated = sorted(stated_rule(&architecture()));
+    let layout = std::fs::read_to_string(root().join("tests/layout.rs")).unwrap();
+    let checked = sorted(checked_rule(&layout));
+    assert!(stated.0.len() > 5 && stated.1.len() > 3, "{stated:?}");
+    assert_eq!(
+        stated, checked,
+        "ARCHITECTURE.md's layers and leaves (left) differ from tests/layout.rs's (right)"
+    );
+}
+
+#[test]
+fn the_rule_readers_read_layers_and_leaves() {
+    let doc = "From the top: (2) `cli`, `x`; (1) `scene`. The leaves — `error`, `chart` — may";
+    let src = "const LAYERS: &[(&str, u32)] = &[\n    (\"scene\", 1),\n    (\"cli\", 2),\n    (\"x\", 2),\n];\n\
+               const LEAVES: &[&str] = &[\n    \"error\", \"chart\",\n];";
+    let s = stated_rule(doc);
+    assert_eq!(
+        s.0,
+        [
+            ("cli".to_string(), 2),
+            ("x".to_string(), 2),
+            ("scene".to_string(), 1)
+        ]
+    );
+    assert_eq!(s.1, ["error", "chart"]);
+    let c = checked_rule(src);
+    assert_eq!(
+        c.0,
+        [
+            ("scene".to_string(), 1),
+            ("cli".to_string(), 2),
+            ("x".to_string(), 2)
+        ]
+    );
+    assert_eq!(c.1, ["error", "chart"]);
 }
