@@ -3,11 +3,11 @@
 //! fixed-point host side, the machine's runs and experiments, design-space sweeps, and the
 //! CLI.
 //!
-//! Dependencies point one way (see ARCHITECTURE.md): `cli` → everything, nothing imports
-//! `cli`; `explore` → `size`, `experiment`, `radiosity` and below; `experiment` → `machine`, `partition`, `chart`; `machine` → `fixed`, `partition`,
-//! `reference`, `wave`; `radiosity` and `stability` → `machine`, `fixed`, `partition`, `reference`; `fixed`,
-//! `partition` → `reference` → `scene`. `error`, `output`, `limits`, `config`,
-//! `paper`, `progress` and `chart` are leaves anyone may use.
+//! Dependencies point down the layers of ARCHITECTURE.md's rule (tests/layout.rs checks
+//! it): `cli` → `explore`, `rtl` → `experiment`, `size`, `radiosity`, `stability` →
+//! `machine` → `fixed`, `partition`, `wave` → `reference` → `scene`; nothing imports `cli`.
+//! `error`, `output`, `limits`, `config`, `paper`, `progress` and `chart` are leaves anyone
+//! may use.
 
 pub mod chart;
 pub mod cli;

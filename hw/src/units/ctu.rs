@@ -23,6 +23,22 @@
 //! - `Join`: waits until every requested patch has arrived and all its jobs are back, then
 //!   retires rays, and goes on with the shell (subshell join) or to the next one.
 //! - `Done`: no ray remains.
+//!
+//! Machine variants (`[machine] job_source`, `overlap_joins`; `ctu` and `false`, the paper's
+//! machine, when absent):
+//! - `job_source = "bundle"`: instead of issuing one job per cycle per arrived patch, the CTU
+//!   hands its ray buffer one `Descriptor` per arrived patch (its `descs` link), naming the
+//!   CTU's remaining rays by their positions in the ray pool (`super::ray_pool`); the ray
+//!   buffer expands descriptors into jobs.
+//! - `overlap_joins`: the CTU traverses the next subshell while the current one drains (one
+//!   ahead). Requests, pending loads and outstanding jobs carry the subshell's parity as their
+//!   phase (`phase_of` per patch); the draining subshell joins when its phase is empty, each
+//!   ray retiring against its position at that subshell's end (a snapshot taken at its first
+//!   step in the next one). With bundles, a patch of the next subshell waits in the patch
+//!   buffer until the join, so its descriptor names the list the join leaves.
+//!
+//! Per-state counters (`state_cycles`, `join_wait_patches`, `join_wait_results`) are in every
+//! run's statistics.
 
 use crate::datapath::dda::FixedDda;
 use crate::datapath::model::STOP_SLACK_T_LSB;
