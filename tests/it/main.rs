@@ -5,6 +5,7 @@
 #[macro_use]
 mod common;
 
+mod architecture;
 mod bad_input;
 mod convergence;
 mod enclosure;

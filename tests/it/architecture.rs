@@ -1,5 +1,5 @@
 //! ARCHITECTURE.md stays true where a test can tell: every repository path it names exists,
-//! its dependency rule names the layers and leaves tests/layout.rs checks, and it is at most
+//! its dependency rule names the layers and leaves tests/it/layout.rs checks, and it is at most
 //! 300 lines (issue 35).
 //!
 //! A path is a token that starts a word with a top-level folder of the repository (`src/`,
@@ -283,7 +283,7 @@ fn the_extractor_finds_rooted_braced_and_relative_paths() {
 
 #[test]
 fn a_path_that_does_not_exist_is_reported() {
-    let text = "Real: src/lib.rs and `tests/layout.rs`; not: src/no_such_file.rs, \
+    let text = "Real: src/lib.rs and `tests/it/layout.rs`; not: src/no_such_file.rs, \
                 `hw/src/{link,nope}.rs`, docs/nowhere/, tests/*.nothing, NOPE.md.\n\
                 ### `src/scene/`\n\
                 `model.rs` and `gone.rs`\n";
@@ -301,7 +301,7 @@ fn a_path_that_does_not_exist_is_reported() {
     );
     // A file named as a folder is not one.
     assert!(!exists(&root(), "src/lib.rs/"));
-    assert!(exists(&root(), "tests/*.rs") && exists(&root(), "src/scene/"));
+    assert!(exists(&root(), "tests/it/*.rs") && exists(&root(), "src/scene/"));
 }
 
 /// The layers and leaves ARCHITECTURE.md's dependency rule states: `(N) `a`, `b`; …` after
@@ -324,12 +324,12 @@ fn stated_rule(text: &str) -> (Vec<(String, u32)>, Vec<String>) {
     (layers, leaves)
 }
 
-/// The `LAYERS` and `LEAVES` tests/layout.rs checks, read from its source text.
+/// The `LAYERS` and `LEAVES` tests/it/layout.rs checks, read from its source text.
 fn checked_rule(source: &str) -> (Vec<(String, u32)>, Vec<String>) {
     let block = |name: &str| -> &str {
         let at = source
             .find(name)
-            .unwrap_or_else(|| panic!("{name} in tests/layout.rs"));
+            .unwrap_or_else(|| panic!("{name} in tests/it/layout.rs"));
         let rest = &source[at..];
         let open = rest.find("= &[").expect("a list") + 4;
         &rest[open..open + rest[open..].find("];").expect("the list's end")]
@@ -359,12 +359,12 @@ fn the_stated_dependency_rule_is_the_one_tests_layout_checks() {
         (l, v)
     };
     let stated = sorted(stated_rule(&architecture()));
-    let layout = std::fs::read_to_string(root().join("tests/layout.rs")).unwrap();
+    let layout = std::fs::read_to_string(root().join("tests/it/layout.rs")).unwrap();
     let checked = sorted(checked_rule(&layout));
     assert!(stated.0.len() > 5 && stated.1.len() > 3, "{stated:?}");
     assert_eq!(
         stated, checked,
-        "ARCHITECTURE.md's layers and leaves (left) differ from tests/layout.rs's (right)"
+        "ARCHITECTURE.md's layers and leaves (left) differ from tests/it/layout.rs's (right)"
     );
 }
 
