@@ -159,9 +159,10 @@ pub struct Link<T> {
     touch_bit: u64,
     /// Items transferred (popped) since the start.
     pub transfers: u64,
-    /// The registered state changed at an edge since the waveform last looked
-    /// ([`Link::take_changed`]); true at the start.
-    changed: Cell<bool>,
+    /// The clock's stamp of the last touched edge ([`Link::commit_at`]): the registered
+    /// state changes only at a touched edge, so the waveform's sampler reads a link only when
+    /// this is past its last sample ([`Link::stamp`]).
+    stamp: u64,
 }
 
 /// Rule 7: records `by` as the link's `end` on first use, else checks it is the same unit.
@@ -213,7 +214,7 @@ impl<T: Clone + Default> Link<T> {
             touch: TouchWord::default(),
             touch_bit: 1,
             transfers: 0,
-            changed: Cell::new(true),
+            stamp: 0,
         }
     }
 }
@@ -320,11 +321,20 @@ impl<T: Clone> Link<T> {
             .collect()
     }
 
-    /// The clock edge (rule 4). An untouched link has nothing to do.
+    /// The clock edge (rule 4) outside a clock that stamps it: a sampler takes the link as
+    /// changed ever after ([`Link::commit_at`]). An untouched link has nothing to do.
     #[inline(always)]
     pub fn commit(&mut self) {
+        self.commit_at(u64::MAX);
+    }
+
+    /// The clock edge (rule 4) at the end of cycle `stamp`: a touched link commits and
+    /// records the stamp ([`Link::stamp`]); an untouched link has nothing to do.
+    #[inline(always)]
+    pub fn commit_at(&mut self, stamp: u64) {
         if self.touched {
             self.commit_staged();
+            self.stamp = stamp;
         }
     }
 
@@ -343,7 +353,6 @@ impl<T: Clone> Link<T> {
         self.room = (self.capacity - self.len).min(self.ports);
         self.peekable = self.len > 0;
         self.touched = false;
-        *self.changed.get_mut() = true;
     }
 
     /// Removes the `staged_take_back` registered items before this cycle's pushes: the
@@ -373,12 +382,13 @@ impl<T: Clone> Link<T> {
         s.bits(scope, "transfers", 32, self.transfers);
     }
 
-    /// True when the registered state (valid, ready, occupancy, transfers) may have changed
-    /// since the last call — a touched edge happened — and clears it: the waveform's walk
-    /// reads a link's signals only then. Registered state changes only at a touched edge.
+    /// The stamp of the last touched edge (0 before any): the registered state (valid,
+    /// ready, occupancy, transfers) changes only at a touched edge, so the waveform reads a
+    /// link's signals only when this is past its last sample ([`Sink::link_moved`]; the
+    /// link keeps no flag for it).
     #[inline(always)]
-    pub fn take_changed(&self) -> bool {
-        self.changed.replace(false)
+    pub fn stamp(&self) -> u64 {
+        self.stamp
     }
 
     /// Items held at the last edge.
@@ -515,22 +525,20 @@ mod tests {
     }
 
     #[test]
-    fn the_change_flag_is_raised_by_a_touched_edge_only() {
+    fn the_stamp_moves_at_a_touched_edge_only() {
         let mut l: Link<u32> = Link::new(2);
-        assert!(l.take_changed(), "a new link has never been looked at");
-        assert!(!l.take_changed());
-        l.commit();
-        assert!(!l.take_changed(), "an untouched edge changes nothing");
+        assert_eq!(l.stamp(), 0);
+        l.commit_at(3);
+        assert_eq!(l.stamp(), 0, "an untouched edge changes nothing");
         l.push(UnitId::Memory, 7);
-        assert!(!l.take_changed(), "a staged push is not registered yet");
+        assert_eq!(l.stamp(), 0, "a staged push is not registered yet");
         let before = (l.valid(), l.ready(), l.len(), l.transfers);
-        l.commit();
-        assert!(l.take_changed());
+        l.commit_at(4);
+        assert_eq!(l.stamp(), 4);
         assert_ne!((l.valid(), l.ready(), l.len(), l.transfers), before);
         l.pop(UnitId::Balancer);
         l.commit();
-        assert!(l.take_changed());
-        assert!(!l.take_changed());
+        assert_eq!(l.stamp(), u64::MAX, "an unclocked edge: always changed");
     }
 
     /// The two-phase FIFO the ring must behave as: a queue of registered items followed by

@@ -135,8 +135,8 @@ macro_rules! links {
 
             /// The clock edge of every link: those touched this cycle commit, the others
             /// have nothing to do.
-            pub fn commit_all(&mut self) {
-                $( commit_family(&mut self.$name, &self.touch.$name); )*
+            pub fn commit_all(&mut self, now: u64) {
+                $( commit_family(&mut self.$name, &self.touch.$name, now); )*
             }
 
             /// True when every link is empty.
@@ -278,14 +278,14 @@ impl Links {
 /// The clock edge of a family's links whose bits are up in its touch `words` (one whose
 /// bit is up but that has nothing staged commits nothing).
 #[inline(always)]
-fn commit_family<T: Clone>(family: &mut [Link<T>], words: &[TouchWord]) {
+fn commit_family<T: Clone>(family: &mut [Link<T>], words: &[TouchWord], now: u64) {
     for (w, word) in words.iter().enumerate() {
         let mut bits = word.take();
         while bits != 0 {
             let i = w * 64 + bits.trailing_zeros() as usize;
             bits &= bits - 1;
             if let Some(l) = family.get_mut(i) {
-                l.commit();
+                l.commit_at(now);
             }
         }
     }
@@ -294,7 +294,8 @@ fn commit_family<T: Clone>(family: &mut [Link<T>], words: &[TouchWord]) {
 /// Reports a link's registered valid, ready, occupancy and transfer count (a filler skips
 /// them when no edge touched the link since the last sample).
 pub(super) fn probe_link<T: Clone, S: Sink>(p: &mut S, scope: &str, l: &Link<T>) {
-    if !p.skip_unchanged(l.take_changed(), Link::<T>::SIGNALS) {
+    let moved = p.link_moved(l.stamp());
+    if !p.skip_unchanged(moved, Link::<T>::SIGNALS) {
         l.signals(p, scope);
     }
 }
@@ -321,7 +322,7 @@ mod tests {
             l.requests[i].push(UnitId::Ctu(i / 2, i % 2), MemRequest::default());
         }
         l.orders[3].push(UnitId::Balancer, SplitOrder::default());
-        l.commit_all();
+        l.commit_all(1);
         for (i, r) in l.requests.iter().enumerate() {
             assert!(r.is_settled(), "request link {i} committed");
             assert_eq!(r.len(), touched.contains(&i) as usize, "request link {i}");
@@ -332,17 +333,15 @@ mod tests {
         );
         assert!(l.jobs.iter().all(|j| j.is_settled() && j.is_empty()));
         // A pop is a touch too; a link untouched since its last edge keeps its state.
-        for r in l.requests.iter_mut() {
-            r.take_changed();
-        }
         assert_eq!(l.requests[64].pop(UnitId::Memory), MemRequest::default());
-        l.commit_all();
-        assert!(l.requests[64].is_empty() && l.requests[64].take_changed());
+        l.commit_all(2);
+        assert!(l.requests[64].is_empty() && l.requests[64].stamp() == 2);
         assert_eq!(l.requests[64].transfers, 1);
-        assert!(!l.requests[63].take_changed() && l.requests[63].len() == 1);
-        l.commit_all();
-        assert!(
-            !l.requests[64].take_changed(),
+        assert!(l.requests[63].stamp() == 1 && l.requests[63].len() == 1);
+        l.commit_all(3);
+        assert_eq!(
+            l.requests[64].stamp(),
+            2,
             "an edge with nothing staged changes nothing"
         );
     }

@@ -342,6 +342,10 @@ impl<A: Arrays> Sink for Fill<'_, A> {
         }
     }
     #[inline(always)]
+    fn link_moved(&mut self, stamp: u64) -> bool {
+        stamp > self.last.since
+    }
+    #[inline(always)]
     fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {
         let skip = !changed && self.filled_before();
         if skip {
@@ -359,6 +363,9 @@ struct Last<'a> {
     ring: &'a mut [usize],
     /// Per CTU, cluster-major: its [`Ctu::active_cycles`] ([`Sink::moved`]).
     counts: &'a mut [u64],
+    /// The cycle of the last sample (0 before the first, whose fill writes every signal): a
+    /// link whose stamp is past it has changed since ([`Sink::link_moved`]).
+    since: u64,
 }
 
 /// What a run keeps to sample the machine's waveform, none of it in the model: the scopes
@@ -380,6 +387,8 @@ pub struct Sampler {
     ring: Vec<usize>,
     /// Per CTU, cluster-major: its active cycles at the last sample.
     counts: Vec<u64>,
+    /// The cycle of the last sample (0 before the first).
+    since: u64,
     /// The value array holds a whole sample (after the first fill).
     filled: bool,
 }
@@ -413,6 +422,7 @@ impl Sampler {
             quiet: &mut self.quiet,
             ring: &mut self.ring,
             counts: &mut self.counts,
+            since: self.since,
         };
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut self.values[..]),
@@ -434,6 +444,7 @@ impl Sampler {
         assert_eq!(filled, n, "the walk's layout never changes");
         p.sample_changes(m.cycle, &self.values[..n], &self.changes[..changed]);
         self.filled = true;
+        self.since = m.cycle;
     }
 }
 
@@ -759,6 +770,7 @@ mod tests {
             quiet: &mut [],
             ring,
             counts: &mut [],
+            since: 0,
         }
     }
 

@@ -55,8 +55,14 @@ pub(crate) trait Sink {
         let _ = (u, count);
         true
     }
+    /// True when `stamp`, a link's last touched edge ([`crate::link::Link::stamp`]), is past
+    /// the last sample: its signals may have changed. True unless a filler knows better.
+    fn link_moved(&mut self, stamp: u64) -> bool {
+        let _ = stamp;
+        true
+    }
     /// The next `n` signals are a unit's whose values can have changed since the last sample
-    /// only when `changed` (a link an edge touched, `Link::take_changed`; a CTU whose
+    /// only when `changed` (a link whose stamp [`Sink::link_moved`]; a CTU whose
     /// counter [`Sink::moved`]): a filler skips them when not, leaving the last sample's
     /// values, once it has filled the array at least once. True when skipped.
     fn skip_unchanged(&mut self, changed: bool, n: usize) -> bool {

@@ -44,9 +44,9 @@ impl Machine<'_> {
                 }
             }
         }
-        self.links.commit_all();
+        self.links.commit_all(now);
         for cl in &mut self.clusters {
-            cl.commit();
+            cl.commit(now);
         }
         // The watchdog samples progress every 64 cycles (its resolution).
         if now.is_multiple_of(64) {

@@ -42,11 +42,12 @@ impl Cluster {
 
     /// The clock edge of the units' own stores (the ray buffer's queue, the patch buffer's
     /// store); the links commit in `machine::links`. Inlined: it runs every cycle for every
-    /// cluster, and each store's edge is one test when untouched.
+    /// cluster, and each store's edge is one test when untouched. `now`: the cycle whose
+    /// edge this is (the stores' stamp, [`Link::commit_at`]).
     #[inline(always)]
-    pub fn commit(&mut self) {
-        self.ray_buffer.commit();
-        self.patch_buffer.commit();
+    pub fn commit(&mut self, now: u64) {
+        self.ray_buffer.commit_at(now);
+        self.patch_buffer.commit_at(now);
     }
 }
 

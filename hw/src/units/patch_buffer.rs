@@ -59,10 +59,16 @@ impl PatchBuffer {
         }
     }
 
-    /// The clock edge of the store.
+    /// The clock edge of the store, outside a stamping clock ([`Link::commit`]).
     #[inline(always)]
     pub fn commit(&mut self) {
-        self.store.commit();
+        self.commit_at(u64::MAX);
+    }
+
+    /// The clock edge of the store at the end of cycle `now` ([`Link::commit_at`]).
+    #[inline(always)]
+    pub fn commit_at(&mut self, now: u64) {
+        self.store.commit_at(now);
     }
 }
 

@@ -132,10 +132,16 @@ impl RayBuffer {
         self.descs.front().map(|d| (d.patch, d.jobs()))
     }
 
-    /// The clock edge of the buffer's own stores.
+    /// The clock edge of the buffer's own stores, outside a stamping clock ([`Link::commit`]).
     #[inline(always)]
     pub fn commit(&mut self) {
-        self.queue.commit();
+        self.commit_at(u64::MAX);
+    }
+
+    /// The clock edge of the buffer's own stores at the end of cycle `now` ([`Link::commit_at`]).
+    #[inline(always)]
+    pub fn commit_at(&mut self, now: u64) {
+        self.queue.commit_at(now);
         self.desc_jobs_registered = self.desc_jobs;
     }
 
