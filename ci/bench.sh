@@ -9,18 +9,21 @@
 # a failed run leaves the old table whole.
 #
 #   bash ci/bench.sh            # every part, full settings (≤ ~25 min on 2 cores)
-#   bash ci/bench.sh --quick    # every part, the smallest settings (a few minutes)
+#   bash ci/bench.sh --quick    # the smallest settings (a few minutes); keeps the rows of the
+#                               # slow parts: synth (minutes of Yosys), estimator (deterministic)
 #   bash ci/bench.sh --only waves --only levels   # rerun these parts' rows, keep the others
 #   bash ci/bench.sh --list     # the parts
 #
 # A part whose tool is absent (Verilator, Yosys, valgrind, embreex) writes "not measured: …"
 # in its rows; a part that fails writes "failed" and its log's path, and the others go on.
-# Logs and each part's wall seconds: $CARGO_TARGET_DIR/bench-logs (default target/).
-# The wall seconds of the parts are printed to stderr, not written to the table.
+# Logs: $CARGO_TARGET_DIR/bench-logs (default target/). The wall seconds of the parts are
+# printed to stderr, not written to the table.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-PARTS=(machine waves rates instr levels radiosity explore reference fixed tracer embree scale rtl estimator)
+PARTS=(machine waves rates instr levels radiosity explore reference fixed tracer embree scale cosim synth estimator)
+# Slow parts: --quick keeps their rows as they are unless --only names them.
+SLOW=(synth estimator)
 QUICK=0; ONLY=()
 while [ $# -gt 0 ]; do
   case $1 in
@@ -28,7 +31,7 @@ while [ $# -gt 0 ]; do
     --only) [ $# -ge 2 ] || { echo "bench.sh: --only needs a part" >&2; exit 2; }
             ONLY+=("$2"); shift ;;
     --list) printf '%s\n' "${PARTS[@]}"; exit 0 ;;
-    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench.sh: unknown argument $1 (--quick, --only PART, --list)" >&2; exit 2 ;;
   esac
   shift
@@ -36,7 +39,14 @@ done
 for p in ${ONLY[@]+"${ONLY[@]}"}; do
   [[ " ${PARTS[*]} " == *" $p "* ]] || { echo "bench.sh: no part '$p' (--list)" >&2; exit 2; }
 done
-RUN=("${PARTS[@]}"); [ ${#ONLY[@]} -gt 0 ] && RUN=("${ONLY[@]}")
+RUN=()
+if [ ${#ONLY[@]} -gt 0 ]; then RUN=("${ONLY[@]}")
+else
+  for p in "${PARTS[@]}"; do
+    if [ "$QUICK" = 1 ] && [[ " ${SLOW[*]} " == *" $p "* ]]; then continue; fi
+    RUN+=("$p")
+  done
+fi
 
 FILE=BENCHMARKS.md
 BEGIN='<!-- bench:begin -->'; END='<!-- bench:end -->'
@@ -84,7 +94,8 @@ row() {
 na() { row "$1" "$2" "$3" "not measured: $5" "" "$4"; }
 # crit GROUP BENCH: criterion's median, in ns.
 crit() { jq '.median.point_estimate' "$CRIT/$1/$2/new/estimates.json"; }
-# Arithmetic and formats.
+# Arithmetic and formats; thou puts thousands separators in an integer.
+thou() { sed -e ':a' -e 's/\B[0-9]\{3\}\>/,&/' -e 'ta'; }
 calc() { awk "BEGIN {printf \"$1\", $2}"; }
 ms() { calc '%.1f' "$1 / 1e6"; }
 
@@ -116,10 +127,11 @@ part_waves() {
   local out; out=$(bash ci/wave-ratio.sh "$WAVE_ROUNDS" "$BIN"); echo "$out"
   med() { echo "$out" | grep -o " $1 [0-9.]*s ([0-9.]*x)" | head -1; }
   local off; off=$(echo "$out" | grep -o 'off [0-9.]*s' | head -1 | tr -dc '0-9.')
+  off=$(calc '%.3f' "$off")
   local cmd="bash ci/wave-ratio.sh $WAVE_ROUNDS target/release/shellsim"
   for m in vcd fst lz4; do
     local f v s; f=$(med "$m"); v=$(echo "$f" | grep -o '([0-9.]*x)' | tr -dc '0-9.')
-    s=$(echo "$f" | awk '{print $2}')
+    s=$(echo "$f" | awk '{printf "%.3fs", $2}')
     case $m in
       vcd) row waves "VCD on / off, scene2 ratio 10 (500 MB VCD), medians of simulation seconds" \
              "$cmd" "$v× ($s / ${off}s)" "$v" "≤ 2×" ;;
@@ -195,7 +207,7 @@ part_radiosity() {
   c=$(echo "$out" | awk '$1 == "scene2" && $2 == "machine" {print $5}')
   local cmd="cargo bench --bench radiosity -- scene2"
   row radiosity "Whole form-factor matrix of scene2 on the machine (808 rows × 969 rays, paper.toml, 2 threads), wall" \
-    "$cmd" "$m s ($c cycles)" "$m" "≤ 60 s"
+    "$cmd" "$m s ($(echo "$c" | thou) cycles)" "$m" "≤ 60 s"
   row radiosity "The same matrix on the float / fixed-point models, wall" "$cmd" "$f s / $x s" "" "—"
 }
 
@@ -204,7 +216,7 @@ part_explore() {
   cargo bench --bench explore -- ${CRIT_ARGS[@]+"${CRIT_ARGS[@]}"}
   local g=explore_point_scene2_ratio1 f m q
   f=$(crit $g fixed); m=$(crit $g machine); q=$(crit $g machine-queue)
-  ph() { calc '%.0f' "3600e9 / $1"; }
+  ph() { calc '%.0f' "3600e9 / $1" | thou; }
   local cmd="cargo bench --bench explore$CA"
   row explore "Design points per hour per core, one \`explore\` point on scene2 ratio 1: fixed / machine / machine at the queue level" \
     "$cmd" "$(ph "$f") / $(ph "$m") / $(ph "$q")" "" "—"
@@ -247,6 +259,7 @@ part_embree() {
   local venv=${VENV:-/tmp/embree-venv}
   local cmd="ROUNDS=$EMBREE_ROUNDS bash ci/embree-ratio.sh"
   local names=("Cornell box, 18 patches" "Cornell room, 1,183 patches" "Cornell room, 21,175 patches")
+  local keys=(cornell corpus-subdivided-cornell-13 corpus-subdivided-cornell-55)
   if ! "$venv/bin/python" -c "import embreex, numpy" 2> /dev/null; then
     for s in "${names[@]}"; do
       na embree "Float tracer (packet path) / Embree 4, one thread, same rays: $s" "$cmd" "≥ 1.0×" \
@@ -255,9 +268,15 @@ part_embree() {
     return
   fi
   ROUNDS=$EMBREE_ROUNDS VENV=$venv bash ci/embree-ratio.sh | tee "$W/embree.md"
-  for s in "${names[@]}"; do
-    local r; r=$(awk -F' *[|] *' -v s="$s" '$2 == s {print $6}' "$W/embree.md" | tr -dc '0-9.')
-    row embree "Float tracer (packet path) / Embree 4, one thread, same rays: $s" "$cmd" "$r×" "$r" "≥ 1.0×"
+  # | scene | patches (triangles) | rays | one-ray | packet | bare walk | Embree | packet / Embree | …
+  local k; for k in 0 1 2; do
+    local r p e
+    r=$(awk -F' *[|] *' -v s="${keys[k]}" '$2 == s {print $9}' "$W/embree.md" | tr -dc '0-9.')
+    p=$(awk -F' *[|] *' -v s="${keys[k]}" '$2 == s {print $6}' "$W/embree.md" | tr -dc '0-9.')
+    e=$(awk -F' *[|] *' -v s="${keys[k]}" '$2 == s {print $8}' "$W/embree.md" | tr -dc '0-9.')
+    [ -n "$r" ] || { echo "bench.sh: no row for ${keys[k]} in embree-ratio.sh's table" >&2; return 1; }
+    row embree "Float tracer (packet path) / Embree 4, one thread, same rays: ${names[k]}" "$cmd" \
+      "$r× ($p / $e M rays/s)" "$r" "≥ 1.0×"
   done
 }
 
@@ -299,7 +318,7 @@ part_scale() {
     "$((rss / 1024)) MiB" "" "—"
 }
 
-part_rtl() {
+part_cosim() {
   local c=$TARGET/bench-rtl-cache
   local m1="Co-simulation, ICU at full rate / under back-pressure / DDA step, every stage register compared, F = 12"
   local cmd1="shellsim cosim --frac-bits 12 --vectors $COSIM_VECTORS"
@@ -309,19 +328,22 @@ part_rtl() {
     a=$(echo "$out" | grep 'icu at full rate:' | grep -o '[0-9.]* M vectors/s' | cut -d' ' -f1)
     b=$(echo "$out" | grep 'icu back-pressure:' | grep -o '[0-9.]* M vectors/s' | cut -d' ' -f1)
     e=$(echo "$out" | grep 'dda:' | grep -o '[0-9.]* M vectors/s' | cut -d' ' -f1)
-    row rtl "$m1" "$cmd1" "$a / $b / $e M vectors/s" "" "—"
+    row cosim "$m1" "$cmd1" "$a / $b / $e M vectors/s" "" "—"
   else
-    na rtl "$m1" "$cmd1" "—" "verilator not installed"
+    na cosim "$m1" "$cmd1" "—" "verilator not installed"
   fi
+}
+
+part_synth() {
   local m2="Yosys synthesis of the ICU at F = 12, generic + ECP5, uncached (wall)"
   local cmd2="SHELLSIM_RTL_CACHE=\$(mktemp -d) shellsim rtl cost --frac-bits 12"
   if command -v yosys > /dev/null; then
     local t0 t1; t0=$(date +%s.%N)
     SHELLSIM_RTL_CACHE=$W/rtl "$BIN" rtl cost --frac-bits 12
     t1=$(date +%s.%N)
-    row rtl "$m2" "$cmd2" "$(calc '%.0f' "$t1 - $t0") s" "" "—"
+    row synth "$m2" "$cmd2" "$(calc '%.0f' "$t1 - $t0") s" "" "—"
   else
-    na rtl "$m2" "$cmd2" "—" "yosys not installed"
+    na synth "$m2" "$cmd2" "—" "yosys not installed"
   fi
 }
 
