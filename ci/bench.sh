@@ -252,7 +252,8 @@ part_tracer() {
   local m="Float tracer, packet path, one thread: Cornell room, 21,175 patches (sized grid, 48,450 rays)"
   local j; j=$("$EX/tracer_speed" cornell-55 --reps "$TRACER_REPS"); echo "$j"
   row tracer "$m" "target/release/examples/tracer_speed cornell-55 --reps $TRACER_REPS" \
-    "$(echo "$j" | jq -r '"\(.rays / .packet_s / 1e6 * 100 | round / 100) M rays/s (one-ray \(.rays / .one_s / 1e6 * 100 | round / 100), bare walk \(.rays / .dda_only_s / 1e6 * 100 | round / 100))"')" "" "—"
+    "$(echo "$j" | jq -r '[.rays / .packet_s, .rays / .one_s, .rays / .dda_only_s] | @tsv' |
+      awk '{printf "%.2f M rays/s (one-ray %.2f, bare walk %.2f)", $1 / 1e6, $2 / 1e6, $3 / 1e6}')" "" "—"
 }
 
 part_embree() {
@@ -353,9 +354,10 @@ part_estimator() {
   # shellcheck disable=SC2016 # awk's fields
   local at='$3 == 1000000'
   local rnd mal rng
-  rnd=$(awk -F, "$at"' && $2 == "Random" {print $8}' "$W/est.csv" | sort -g | sed -n '1p;$p' | paste -sd-)
-  mal=$(awk -F, "$at"' && $2 == "Malley" && $1 ~ /^point/ {print $9}' "$W/est.csv" | sort -g | sed -n '1p;$p' | paste -sd-)
-  rng=$(awk -F, "$at"' && $2 == "Rings" && $1 ~ /^area/ {print $8}' "$W/est.csv" | sort -g | sed -n '1p;$p' | paste -sd-)
+  span() { sort -g | sed -n '1p;$p' | paste -sd' ' | awk '{printf "%.2f–%.2f", $1, $2}'; }
+  rnd=$(awk -F, "$at"' && $2 == "Random" {print $8}' "$W/est.csv" | span)
+  mal=$(awk -F, "$at"' && $2 == "Malley" && $1 ~ /^point/ {print $9}' "$W/est.csv" | span)
+  rng=$(awk -F, "$at"' && $2 == "Rings" && $1 ~ /^area/ {print $8}' "$W/est.csv" | span)
   row estimator "Form-factor error against the analytic value, unit cube, N = 10⁶: random directions RMS / binomial σ; Malley from a point RMS·N^¾; rings from an area RMS / binomial σ" \
     "cargo run --release --example estimator_error" "$rnd; $mal; $rng" "" "—"
 }
