@@ -170,8 +170,11 @@ part_instr() {
   local cmd="bash ci/thread-instr.sh target/release/shellsim --ratio $INSTR_RATIO [--vcd x.vcd]"
   command -v valgrind > /dev/null || { na instr "$m" "$cmd" "—" "valgrind not installed"; return; }
   local a b
-  a=$(bash ci/thread-instr.sh "$BIN" --ratio "$INSTR_RATIO" | tee /dev/stderr | grep -o 'Machine::run [0-9]*' | awk '{print $2}')
-  b=$(bash ci/thread-instr.sh "$BIN" --ratio "$INSTR_RATIO" --vcd "$W/x.vcd" | tee /dev/stderr | grep -o 'Machine::run [0-9]*' | awk '{print $2}')
+  local oa ob
+  oa=$(bash ci/thread-instr.sh "$BIN" --ratio "$INSTR_RATIO"); echo "$oa"
+  ob=$(bash ci/thread-instr.sh "$BIN" --ratio "$INSTR_RATIO" --vcd "$W/x.vcd"); echo "$ob"
+  a=$(echo "$oa" | grep -o 'Machine::run [0-9]*' | awk '{print $2}')
+  b=$(echo "$ob" | grep -o 'Machine::run [0-9]*' | awk '{print $2}')
   rm -f "$W/x.vcd"
   row instr "$m" "$cmd" "$(calc '%.2f' "$b / $a")× ($(calc '%.0f' "$b / 1e6") / $(calc '%.0f' "$a / 1e6") M)" "" "—"
 }
