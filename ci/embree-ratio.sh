@@ -4,7 +4,8 @@
 # The Cornell box (18 patches), the Cornell room subdivided to 1,183 and 21,175 patches
 # (`scene gen corpus-subdivided-cornell --n 13 / 55`), each with the paper's 969 rings rays
 # from 50 sources (48,450 rays), the grid sized to the scene; everything on one thread
-# pinned to one core. Prints the Markdown table of BENCHMARKS.md.
+# pinned to one core. Prints a Markdown table; ci/bench.sh reads its packet / Embree
+# column into BENCHMARKS.md's `embree` rows.
 #
 #   bash ci/embree-ratio.sh
 #

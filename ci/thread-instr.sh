@@ -5,7 +5,7 @@
 # between two runs of the same binary as callgrind attributes tail calls; threads' totals
 # and `Machine::run` do not). Instruction counts do not see kernel time or the
 # two cores' contention, but they are stable from run to run where wall times on these
-# machines move by 15 % or more: compare them across changes and sessions (BENCHMARKS.md, issue 13).
+# machines move by 15 % or more: compare them across changes and sessions (BENCHMARKS.md, row `instr`).
 # Default run: scene2 at Hi_Low_Ratio 10 with a VCD. Needs valgrind (callgrind_annotate).
 # Example: bash ci/thread-instr.sh target/release/shellsim --ratio 10 --wave /tmp/x.fst
 set -euo pipefail
@@ -27,12 +27,13 @@ total() {
 }
 incl() {
     callgrind_annotate --show-percs=no --inclusive=yes "$1" 2>/dev/null |
-        awk -v pat="$2" 'index($0, pat) && $1 ~ /^[0-9,]+$/ && !n {gsub(",", "", $1); n = $1} END {print n}'
+        awk -v pat="$2" '$0 ~ pat && $1 ~ /^[0-9,]+$/ && !n {gsub(",", "", $1); n = $1} END {print n}'
 }
 printf '%-8s %15s  %s\n' thread instructions 'of which'
 for f in "$DIR"/callgrind.out.*-*; do
     n=$(total "$f"); [ "${n:-0}" -gt 1000000 ] || continue
-    run=$(incl "$f" 'machine::Machine::run [')
+    # (`Machine::run` is `run_reporting` with no report since the progress line)
+    run=$(incl "$f" 'machine::Machine::run(_reporting)? \\[')
     extra=${run:+Machine::run $run}
     printf '%-8s %15s  %s\n' "${f##*.out.*-}" "$n" "$extra"
 done
