@@ -2,7 +2,7 @@
 //! blocks with `O_DIRECT` (Linux), written on a thread of their own while the next block
 //! fills, so writing half a gigabyte neither copies it into the page cache nor makes the
 //! kernel find fresh pages for it — on the virtual machines this project runs on, that copy
-//! was most of a ratio-10 VCD run (BENCHMARKS.md, session 10). Where direct I/O is refused
+//! was most of a ratio-10 VCD run (measured in issue 13; `git log -p BENCHMARKS.md`). Where direct I/O is refused
 //! (a filesystem without it, a device asking for more alignment, a file that is not regular)
 //! the file goes on buffered from that byte on; the bytes are the same either way.
 

@@ -360,7 +360,7 @@ impl Probe for WaveWriter {
     /// A VCD's thread moves an advanced ICU's later stages itself (`apply_changes`): the
     /// simulation thread, which bounds a VCD run, saves ~10 % of its instructions. An FST's
     /// does not: an FST run is bound by the work of its three threads together, to which
-    /// the move adds (BENCHMARKS.md, session 10).
+    /// the move adds (measured in issue 13; `git log -p BENCHMARKS.md`).
     fn shifts_stages(&self) -> bool {
         self.format == WaveFormat::Vcd
     }
