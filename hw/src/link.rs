@@ -80,6 +80,20 @@ impl UnitId {
     }
 }
 
+/// The unit as the watchdog's report names it: `memory`, `cluster 1 ctu 0`, ….
+impl std::fmt::Display for UnitId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            UnitId::Memory => write!(f, "memory"),
+            UnitId::Balancer => write!(f, "balancer"),
+            UnitId::Ctu(c, j) => write!(f, "cluster {c} ctu {j}"),
+            UnitId::Icu(c) => write!(f, "cluster {c} icu"),
+            UnitId::RayBuffer(c) => write!(f, "cluster {c} ray buffer"),
+            UnitId::PatchBuffer(c) => write!(f, "cluster {c} patch buffer"),
+        }
+    }
+}
+
 /// A unit's [`UnitId::code`], computed once: what a push or pop names (rule 7). A unit on
 /// the hot path keeps its own, so the check is one compare with a value in a register (the
 /// code of a `UnitId` read from memory is a jump table on its kind, which cost more than the
@@ -189,6 +203,19 @@ impl<T: Clone + Default> Link<T> {
     /// A link holding at most `capacity` items (at least 1).
     pub fn new(capacity: usize) -> Self {
         Self::with_ports(capacity, 1)
+    }
+
+    /// Bytes a link of `capacity` takes (as [`Link::with_ports`] builds it): the link and
+    /// its ring's slots. What the machine's memory estimate counts per link.
+    pub fn bytes(capacity: usize) -> u64 {
+        (std::mem::size_of::<Self>() + capacity.max(1) * std::mem::size_of::<T>()) as u64
+    }
+
+    /// Bytes this link takes as built: the link and the slots allocated (what
+    /// [`Link::bytes`] estimates).
+    #[cfg(test)]
+    pub(crate) fn allocated_bytes(&self) -> u64 {
+        (std::mem::size_of::<Self>() + std::mem::size_of_val(&*self.slots)) as u64
     }
 
     /// A link whose producer side takes up to `ports` items per cycle (a ray buffer fed by

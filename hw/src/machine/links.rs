@@ -1,7 +1,9 @@
 //! Every link of the machine, in one table: its message, how many there are, its capacity,
 //! its producer and consumer (wired once, checked on every push and pop — rule 7 of `link`),
-//! and where the waveform shows it. `commit_all`, `all_empty`, `probe` and the wiring are
-//! generated from the table, so adding a link touches this table and nothing else.
+//! where the waveform shows it, and whether it `waits` for its cluster (an input of the
+//! cluster's ray buffer: a message on it is work for the cluster). `commit_all`, `all_empty`,
+//! `waiting_for` (is anything waiting for cluster c), `memory_estimate`, `probe` and the
+//! wiring are generated from the table, so adding a link touches this table and nothing else.
 //!
 //! The clock edge commits only the links touched in the cycle: each family has its own touch
 //! words, link i of a family raising bit i % 64 of its family's word i / 64 when a push, pop
@@ -53,7 +55,8 @@ macro_rules! links {
             capacity $cap:expr,
             $from:expr => $to:expr,
             probe $section:expr,
-            scope $scope:expr;
+            scope $scope:expr,
+            waits $waits:literal;
     )*) => {
         /// Every link of the machine (see the table in machine/links.rs). Not `Clone`: its
         /// links record their touches in its touch words, which a copy would share.
@@ -144,6 +147,36 @@ macro_rules! links {
                 true $( && self.$name.iter().all(Link::is_empty) )*
             }
 
+            /// True when a message waits on a link into cluster `c`: one of the families
+            /// marked `waits` (the cluster's inputs), at the last edge. The link part of "is
+            /// anything waiting for cluster c" — the idle cluster's test in the forward tick
+            /// and the balancer's request test in the cycle jump.
+            #[inline(always)]
+            pub fn waiting_for(&self, c: usize) -> bool {
+                false $( || ($waits && !self.of(Shape::$shape, &self.$name, c).iter().all(Link::is_empty)) )*
+            }
+
+            /// Bytes every link takes for the machine `m`: per family its count of links,
+            /// each a [`Link`] and its slots, from the capacities [`Links::new`] gives them
+            /// (tested against what it allocates).
+            pub fn memory_estimate(m: &MachineTable) -> u64 {
+                let (nc, k) = (m.clusters as u64, m.ctus_per_cluster as u64);
+                0 $( + {
+                    let cap: fn(&MachineTable) -> usize = $cap;
+                    let n = match Shape::$shape {
+                        Shape::PerCtu => nc * k,
+                        Shape::PerCluster => nc,
+                    };
+                    n * Link::<$t>::bytes(cap(m))
+                } )*
+            }
+
+            /// Bytes the links take as built: every link's [`Link::allocated_bytes`].
+            #[cfg(test)]
+            fn allocated_bytes(&self) -> u64 {
+                0 $( + self.$name.iter().map(Link::allocated_bytes).sum::<u64>() )*
+            }
+
             /// Reports the links of `section` to `p`, family by family in table order (when
             /// `FILTERED`, those `shown` only).
             #[inline(always)]
@@ -192,70 +225,90 @@ links! {
         capacity |m| m.request_queue_capacity as usize,
         |c, j| UnitId::Ctu(c, j) => |_, _| UnitId::Memory,
         probe Section::Arbiter,
-        scope |c, j| format!("machine.memory.arbiter.req_{c}_{j}");
+        scope |c, j| format!("machine.memory.arbiter.req_{c}_{j}"),
+        waits false;
     /// CTU (c, j) → ray buffer c: jobs (a skid buffer).
     jobs: Job, PerCtu,
         capacity |_| 2,
         |c, j| UnitId::Ctu(c, j) => |c, _| UnitId::RayBuffer(c),
         probe Section::Ctu(0, 0),
-        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.jobs");
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.jobs"),
+        waits true;
     /// ICU c → CTU (c, j): results of its own jobs.
     results: JobResult, PerCtu,
         capacity |_| 2,
         |c, _| UnitId::Icu(c) => |c, j| UnitId::Ctu(c, j),
         probe Section::Ctu(0, 0),
-        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.results");
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.results"),
+        waits false;
     /// Patch buffer c → CTU (c, j): arrived patch records.
     arrivals: crate::msg::PatchArrival, PerCtu,
         capacity |_| 2,
         |c, _| UnitId::PatchBuffer(c) => |c, j| UnitId::Ctu(c, j),
         probe Section::Ctu(0, 0),
-        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.arrivals");
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.arrivals"),
+        waits false;
     /// Balancer → ray buffer c: split orders.
     orders: SplitOrder, PerCluster,
         capacity |_| 1,
         |_, _| UnitId::Balancer => |c, _| UnitId::RayBuffer(c),
         probe Section::Balance(0),
-        scope |c, _| format!("machine.cluster_{c}.balance.split_order");
+        scope |c, _| format!("machine.cluster_{c}.balance.split_order"),
+        waits true;
     /// Ray buffer c → balancer: work-items split off.
     items: WorkItem, PerCluster,
         capacity |_| 1,
         |c, _| UnitId::RayBuffer(c) => |_, _| UnitId::Balancer,
         probe Section::Balance(0),
-        scope |c, _| format!("machine.cluster_{c}.balance.work_item");
+        scope |c, _| format!("machine.cluster_{c}.balance.work_item"),
+        waits false;
     /// Balancer → ray buffer c: jobs arriving over the inter-cluster link.
     net_in: Job, PerCluster,
         capacity |_| 2,
         |_, _| UnitId::Balancer => |c, _| UnitId::RayBuffer(c),
         probe Section::Balance(0),
-        scope |c, _| format!("machine.cluster_{c}.balance.net_in");
+        scope |c, _| format!("machine.cluster_{c}.balance.net_in"),
+        waits true;
     /// ICU c → balancer: results of other clusters' jobs.
     remote_out: RemoteResult, PerCluster,
         capacity |_| 2,
         |c, _| UnitId::Icu(c) => |_, _| UnitId::Balancer,
         probe Section::Balance(0),
-        scope |c, _| format!("machine.cluster_{c}.balance.remote_out");
+        scope |c, _| format!("machine.cluster_{c}.balance.remote_out"),
+        waits false;
     /// Balancer → CTU (c, j): results of its jobs computed elsewhere.
     remote_in: JobResult, PerCtu,
         capacity |_| 2,
         |_, _| UnitId::Balancer => |c, j| UnitId::Ctu(c, j),
         probe Section::Hidden,
-        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.remote_in");
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.remote_in"),
+        waits false;
     /// CTU (c, j) → ray buffer c: descriptors (`job_source = "bundle"`).
     descs: Descriptor, PerCtu,
         capacity |_| 2,
         |c, j| UnitId::Ctu(c, j) => |c, _| UnitId::RayBuffer(c),
         probe Section::BundleCtu(0, 0),
-        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.descriptors");
+        scope |c, j| format!("machine.cluster_{c}.ctu_{j}.descriptors"),
+        waits true;
     /// Balancer → ray buffer c: split descriptors over the inter-cluster link (bundle).
     net_desc: Descriptor, PerCluster,
         capacity |_| 2,
         |_, _| UnitId::Balancer => |c, _| UnitId::RayBuffer(c),
         probe Section::BundleCluster(0),
-        scope |c, _| format!("machine.cluster_{c}.ray_buffer.net_descriptors");
+        scope |c, _| format!("machine.cluster_{c}.ray_buffer.net_descriptors"),
+        waits true;
 }
 
 impl Links {
+    /// Cluster `c`'s links of a family of `shape`.
+    #[inline(always)]
+    fn of<'a, T>(&self, shape: Shape, family: &'a [Link<T>], c: usize) -> &'a [Link<T>] {
+        match shape {
+            Shape::PerCtu => &family[c * self.k..(c + 1) * self.k],
+            Shape::PerCluster => std::slice::from_ref(&family[c]),
+        }
+    }
+
     /// The index in a family of `shape` of the link at (cluster `c`, CTU `j`).
     fn index(&self, shape: Shape, c: usize, j: usize) -> usize {
         match shape {
@@ -311,6 +364,88 @@ mod tests {
         let mut m = crate::config::paper().machine;
         m.clusters = 40;
         Links::new(&m)
+    }
+
+    /// The estimate is what `new` allocates, for configurations of every shape and capacity.
+    #[test]
+    fn the_memory_estimate_is_what_the_links_allocate() {
+        for (clusters, ctus, queue) in
+            [(1, 1, 1), (4, 2, 8), (40, 2, 0), (3, 7, 200), (256, 64, 16)]
+        {
+            let mut m = crate::config::paper().machine;
+            (m.clusters, m.ctus_per_cluster, m.request_queue_capacity) = (clusters, ctus, queue);
+            let l = Links::new(&m);
+            assert_eq!(
+                Links::memory_estimate(&m),
+                l.allocated_bytes(),
+                "{clusters} × {ctus}, queue {queue}"
+            );
+        }
+    }
+
+    /// Cluster c waits exactly while one of the ray buffer's inputs of cluster c holds a
+    /// message: its CTUs' jobs and descriptors, its split order, its jobs and descriptors
+    /// from the network; nothing else.
+    #[test]
+    fn waiting_for_a_cluster_is_a_message_on_one_of_its_inputs() {
+        let mut l = links();
+        assert!((0..40).all(|c| !l.waiting_for(c)));
+        let at = |l: &mut Links, f: &dyn Fn(&mut Links)| {
+            f(l);
+            l.commit_all(0);
+            let w: Vec<usize> = (0..40).filter(|&c| l.waiting_for(c)).collect();
+            *l = links();
+            w
+        };
+        let ctu = UnitId::Ctu(33, 1);
+        assert_eq!(at(&mut l, &|l| l.jobs[67].push(ctu, Job::default())), [33]);
+        assert_eq!(
+            at(&mut l, &|l| l.descs[67].push(ctu, Descriptor::default())),
+            [33]
+        );
+        let bal = UnitId::Balancer;
+        assert_eq!(
+            at(&mut l, &|l| l.orders[5].push(bal, SplitOrder::default())),
+            [5]
+        );
+        assert_eq!(
+            at(&mut l, &|l| l.net_in[39].push(bal, Job::default())),
+            [39]
+        );
+        assert_eq!(
+            at(&mut l, &|l| l.net_desc[0].push(bal, Descriptor::default())),
+            [0]
+        );
+        let none: [usize; 0] = [];
+        assert_eq!(
+            at(&mut l, &|l| l.requests[67].push(ctu, MemRequest::default())),
+            none
+        );
+        assert_eq!(
+            at(&mut l, &|l| l.results[67]
+                .push(UnitId::Icu(33), JobResult::default())),
+            none
+        );
+        assert_eq!(
+            at(&mut l, &|l| l.remote_in[67].push(bal, JobResult::default())),
+            none
+        );
+        let pb = UnitId::PatchBuffer(33);
+        assert_eq!(
+            at(&mut l, &|l| l.arrivals[67]
+                .push(pb, crate::msg::PatchArrival::default())),
+            none
+        );
+        assert_eq!(
+            at(&mut l, &|l| l.items[7]
+                .push(UnitId::RayBuffer(7), WorkItem::default())),
+            none
+        );
+        assert_eq!(
+            at(&mut l, &|l| l.remote_out[7]
+                .push(UnitId::Icu(7), RemoteResult::default())),
+            none
+        );
     }
 
     #[test]

@@ -10,6 +10,11 @@
 //! latency) and every link is empty, the clock moves straight to the earliest timer; each unit
 //! accounts the skipped cycles as it would have spent them. Results and waveforms are the
 //! same with or without it.
+//!
+//! The cold paths — the jump, its skip, the end test, the watchdog's progress and report —
+//! reach the units through one registry, [`Machine::each_unit`] (the memory, each cluster's
+//! units as `Cluster::each_unit` lists them, the balancer), each unit answering through the
+//! `units::Unit` trait in its own file; the hot tick (tick.rs) calls each unit by hand.
 
 mod jump;
 pub mod links;
@@ -22,7 +27,7 @@ pub use links::Links;
 pub use probe::Sampler;
 pub use watchdog::Deadlock;
 
-use crate::config::{DescriptorOrder, JobSource, MachineConfig};
+use crate::config::{JobSource, MachineConfig};
 use crate::datapath::model::FixedScene;
 use crate::datapath::record::{RayRecord, RecordSizes};
 use crate::datapath::{Exceptions, FixedHit};
@@ -31,11 +36,10 @@ use crate::trace::Probe;
 use crate::units::balancer::Balancer;
 use crate::units::cluster::Cluster;
 use crate::units::ctu::{Ctu, CtuParams};
-use crate::units::icu::Icu;
 use crate::units::memory::Memory;
-use crate::units::patch_buffer::PatchBuffer;
-use crate::units::ray_buffer::RayBuffer;
 use crate::units::ray_pool::RayList;
+use crate::units::Unit;
+use std::ops::ControlFlow;
 
 /// The order units are ticked in within a cycle.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -148,34 +152,22 @@ impl<'a> Machine<'a> {
                             .skipping(scene.twins_of(Some(source)))
                     })
                     .collect();
-                Cluster::new(
-                    ctus,
-                    Icu::new(cfg.divider_stages()),
-                    if bundle {
-                        RayBuffer::bundle(
-                            cfg.machine.ray_buffer_capacity,
-                            cfg.machine.descriptor_order == DescriptorOrder::LargestFirst,
-                        )
-                    } else {
-                        RayBuffer::new(cfg.machine.ray_buffer_capacity, k + 1)
-                    },
-                    PatchBuffer::new(c, cfg.machine.patch_buffer_capacity),
-                )
+                Cluster::new(&cfg, c, ctus)
             })
             .collect();
         let words = RecordSizes::of(f).patch_words;
         let nc = clusters.len();
+        // The tick order: the memory, the balancer when balancing is on, then each
+        // cluster's units in the order it lists them.
         let mut order = vec![UnitId::Memory];
         if cfg.balance.enabled {
             order.push(UnitId::Balancer);
         }
-        for c in 0..nc {
-            order.push(UnitId::PatchBuffer(c));
-            for j in 0..k {
-                order.push(UnitId::Ctu(c, j));
-            }
-            order.push(UnitId::RayBuffer(c));
-            order.push(UnitId::Icu(c));
+        for (c, cl) in clusters.iter().enumerate() {
+            let _ = cl.each_unit(c, |u, _| {
+                order.push(u);
+                ControlFlow::<()>::Continue(())
+            });
         }
         Machine {
             balancer: Balancer::new(cfg.balance, nc).with_low_water(if bundle {
@@ -201,39 +193,52 @@ impl<'a> Machine<'a> {
     }
 
     /// Bytes the machine's state takes for `cfg` on `patches` patches and `rays` rays, before
-    /// it runs: every link's and store's preallocated slots (the ray buffers, patch buffers
-    /// and request queues dominate for big buffers), each CTU's loaded-patch bitmap, the
-    /// rays' state. An estimate from the configuration alone, for refusing a machine that
-    /// cannot fit before allocating it (tested against the sizes it counts).
+    /// it runs: every link's slots ([`Links::memory_estimate`], generated from the table and
+    /// tested against what it allocates), each cluster's units' stores
+    /// ([`Cluster::memory_estimate`]: the ray buffers and patch buffers dominate for big
+    /// buffers), each CTU's loaded-patch bitmap, the rays' state.
+    /// An estimate from the configuration alone, for refusing a machine that cannot fit
+    /// before allocating it.
     pub fn memory_estimate(cfg: &MachineConfig, patches: usize, rays: usize) -> u64 {
-        use crate::msg::{JobResult, MemRequest, PatchArrival, RemoteResult};
-        use std::mem::size_of;
         let m = &cfg.machine;
         let (c, k) = (m.clusters as u64, m.ctus_per_cluster as u64);
-        let slots = |n: u64, bytes: usize| (n + 1) * bytes as u64;
-        let job = size_of::<crate::msg::Job>();
-        let small = job
-            .max(size_of::<JobResult>())
-            .max(size_of::<RemoteResult>())
-            .max(size_of::<PatchArrival>());
-        let per_cluster = slots(m.ray_buffer_capacity as u64 + k + 1, job)
-            + slots(m.patch_buffer_capacity as u64, size_of::<PatchArrival>())
-            + 4 * slots(2, small)
-            + 4096;
-        let per_ctu = slots(m.request_queue_capacity as u64, size_of::<MemRequest>())
-            + 4 * slots(3, small)
-            + (patches as u64).div_ceil(8)
-            + 4096;
-        // Bundle: the descriptor stores and the ray pools' two lists of (slot, ray).
-        let bundle = if m.job_source == JobSource::Bundle {
-            c * slots(
-                m.ray_buffer_capacity as u64,
-                size_of::<crate::msg::Descriptor>(),
-            ) + rays as u64 * 16
+        let per_ctu = (patches as u64).div_ceil(8) + 4096;
+        // Bundle: the ray pools' two lists of (slot, ray).
+        let pools = if m.job_source == JobSource::Bundle {
+            rays as u64 * 16
         } else {
             0
         };
-        c * per_cluster + c * k * per_ctu + rays as u64 * 64 + bundle
+        Links::memory_estimate(m)
+            + c * Cluster::memory_estimate(cfg)
+            + c * k * per_ctu
+            + rays as u64 * 64
+            + pools
+    }
+
+    /// Visits every unit — the memory, each cluster's units ([`Cluster::each_unit`]), the
+    /// balancer — until `f` breaks: the registry the cold paths (the cycle jump, the end
+    /// test, the watchdog) walk. The hot tick calls each unit by hand (tick.rs).
+    #[inline]
+    pub fn each_unit<B>(
+        &self,
+        mut f: impl FnMut(UnitId, &dyn Unit) -> ControlFlow<B>,
+    ) -> ControlFlow<B> {
+        f(UnitId::Memory, &self.memory)?;
+        for (c, cl) in self.clusters.iter().enumerate() {
+            cl.each_unit(c, &mut f)?;
+        }
+        f(UnitId::Balancer, &self.balancer)
+    }
+
+    /// [`Machine::each_unit`], each unit mutable, all of them.
+    #[inline]
+    fn each_unit_mut(&mut self, mut f: impl FnMut(UnitId, &mut dyn Unit)) {
+        f(UnitId::Memory, &mut self.memory);
+        for (c, cl) in self.clusters.iter_mut().enumerate() {
+            cl.each_unit_mut(c, &mut f);
+        }
+        f(UnitId::Balancer, &mut self.balancer);
     }
 
     /// True when some cluster's ICU or buffers hold work (then the machine is neither done
@@ -253,7 +258,8 @@ impl<'a> Machine<'a> {
         }
     }
 
-    /// True when every sector is finished and nothing is in flight.
+    /// True when every sector is finished and nothing is in flight: every unit done
+    /// (`Unit::done`), every link empty.
     pub fn done(&self) -> bool {
         self.done_from(&mut 0)
     }
@@ -262,10 +268,16 @@ impl<'a> Machine<'a> {
     #[inline]
     fn done_from(&self, busy: &mut usize) -> bool {
         !self.some_cluster_busy(busy)
-            && self.clusters.iter().all(Cluster::drained)
-            && self.memory.inflight() == 0
+            && self
+                .each_unit(|_, u| {
+                    if u.done() {
+                        ControlFlow::Continue(())
+                    } else {
+                        ControlFlow::Break(())
+                    }
+                })
+                .is_continue()
             && self.links.all_empty()
-            && self.balancer.idle()
     }
 
     /// Runs to the end; `probe` sees every unit's signals after every edge that changed them.
@@ -349,5 +361,64 @@ impl<'a> Machine<'a> {
             e.add(&cl.icu.exceptions);
         }
         e
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::datapath::record::CellTable;
+
+    /// The registry lists every unit once: the memory, each cluster's units in tick order, the
+    /// balancer; the tick order is the same units with the balancer second (when balancing
+    /// is on), and the watchdog reports one line per unit. A machine without rays runs to
+    /// its end.
+    #[test]
+    fn the_registry_lists_every_unit_once_in_tick_order() {
+        for (clusters, ctus, balance) in [(1, 1, false), (4, 2, true), (3, 5, false), (2, 3, true)]
+        {
+            let mut cfg = crate::config::paper();
+            (cfg.machine.clusters, cfg.machine.ctus_per_cluster) = (clusters, ctus);
+            cfg.balance.enabled = balance;
+            cfg.machine.shell_radius = crate::config::Length::Value(0.25);
+            let scene = FixedScene {
+                formats: cfg.datapath.formats().unwrap(),
+                patches: Vec::new(),
+                cells: CellTable {
+                    dims: [1, 1, 1],
+                    cell_raw: 1,
+                    first: vec![0],
+                    count: vec![0],
+                    ids: Vec::new(),
+                },
+                twins: Vec::new(),
+            };
+            let sectors = vec![vec![Vec::new(); ctus as usize]; clusters as usize];
+            let m = Machine::new(cfg, &scene, &[], &sectors, 0);
+            let mut ids = Vec::new();
+            let _ = m.each_unit(|u, _| {
+                ids.push(u);
+                ControlFlow::<()>::Continue(())
+            });
+            let (c, k) = (clusters as usize, ctus as usize);
+            assert_eq!(ids.len(), 2 + c * (k + 3), "{c} × {k}");
+            assert_eq!(
+                (ids[0], ids[ids.len() - 1]),
+                (UnitId::Memory, UnitId::Balancer)
+            );
+            for (i, u) in ids.iter().enumerate() {
+                assert!(!ids[..i].contains(u), "{u} listed twice");
+            }
+            let mut order = vec![UnitId::Memory];
+            order.extend(balance.then_some(UnitId::Balancer));
+            order.extend(&ids[1..ids.len() - 1]);
+            assert_eq!(m.order, order);
+            let report = m.deadlock().report;
+            assert_eq!(report.len(), ids.len());
+            assert_eq!(report[1], "cluster 0 patch buffer: 0 patches");
+            let mut m = m;
+            m.run(TickOrder::Forward, None).unwrap();
+            assert!(m.done());
+        }
     }
 }

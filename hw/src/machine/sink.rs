@@ -55,7 +55,7 @@ pub(crate) trait Sink {
         let _ = (u, count);
         true
     }
-    /// True when `stamp`, a link's last touched edge ([`crate::link::Link::stamp`]), is past
+    /// True when `stamp`, a link's last touched edge (`Link::stamp`), is past
     /// the last sample: its signals may have changed. True unless a filler knows better.
     fn link_moved(&mut self, stamp: u64) -> bool {
         let _ = stamp;

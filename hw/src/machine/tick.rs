@@ -7,7 +7,7 @@ use super::{Machine, TickOrder};
 use crate::config::JobSource;
 use crate::datapath::model::FixedScene;
 use crate::datapath::record::RayRecord;
-use crate::link::{Link, UnitId};
+use crate::link::UnitId;
 use crate::units::balancer::BalancerPorts;
 use crate::units::cluster::Cluster;
 use crate::units::ctu::Ctu;
@@ -15,7 +15,6 @@ use crate::units::ctu::CtuPorts;
 use crate::units::icu::IcuPorts;
 use crate::units::ray_buffer::BundlePorts;
 use crate::units::ray_pool::RayList;
-use std::ops::Range;
 
 impl Machine<'_> {
     /// One clock cycle: tick every unit in `order`, then commit every link.
@@ -72,7 +71,7 @@ impl Machine<'_> {
         let l = &mut self.links;
         for (c, cl) in self.clusters.iter_mut().enumerate() {
             let at = c * k..(c + 1) * k;
-            if quiet_cluster(cl, l, c, at.clone()) {
+            if quiet_cluster(cl, l, c) {
                 // Every unit's cycle would only count: the CTUs' in DONE, the empty ICU's;
                 // the empty buffers add nothing to their occupancy counters.
                 for ctu in &mut cl.ctus {
@@ -137,26 +136,6 @@ impl Machine<'_> {
             }
             UnitId::Icu(c) => tick_icu(&mut self.clusters[c], l, c, k, self.scene, self.rays),
         }
-    }
-
-    /// A number that grows whenever anything moves (transfers, steps, grants).
-    pub(super) fn activity(&self) -> u64 {
-        let mut a =
-            self.memory.stats.grants + self.links.requests.iter().map(|l| l.transfers).sum::<u64>();
-        a += self
-            .clusters
-            .iter()
-            .map(|c| c.patch_buffer.store.transfers)
-            .sum::<u64>();
-        a += self.balancer.stats.jobs_moved + self.balancer.stats.results_returned;
-        for cl in &self.clusters {
-            a += cl.icu.stats.jobs_in + cl.icu.stats.results_out;
-            for c in &cl.ctus {
-                a +=
-                    c.stats.dda_steps + c.stats.patch_requests + c.stats.shells + c.stats.subshells;
-            }
-        }
-        a
     }
 }
 
@@ -225,19 +204,15 @@ fn ctu_ports<'a>(l: &'a mut Links, pool: &'a mut [RayList], i: usize) -> CtuPort
 }
 
 /// True when cluster `c` has nothing to do this cycle: its CTUs are finished, its patch
-/// buffer, ray buffer and ICU are empty, and nothing waits at the ray buffer's inputs (at the
-/// last edge, as each unit's own idle test sees it).
+/// buffer, ray buffer and ICU are empty, and nothing waits at the ray buffer's inputs
+/// ([`Links::waiting_for`]; at the last edge, as each unit's own idle test sees it).
 #[inline(always)]
-fn quiet_cluster(cl: &Cluster, l: &Links, c: usize, at: Range<usize>) -> bool {
+fn quiet_cluster(cl: &Cluster, l: &Links, c: usize) -> bool {
     cl.ctus.iter().all(Ctu::is_finished)
         && cl.icu.is_empty()
         && cl.ray_buffer.is_empty()
         && cl.patch_buffer.store.is_empty()
-        && l.orders[c].is_empty()
-        && l.net_in[c].is_empty()
-        && l.net_desc[c].is_empty()
-        && l.jobs[at.clone()].iter().all(Link::is_empty)
-        && l.descs[at].iter().all(Link::is_empty)
+        && !l.waiting_for(c)
 }
 
 /// A deterministic Fisher–Yates shuffle (splitmix64).

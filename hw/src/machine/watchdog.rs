@@ -1,7 +1,9 @@
 //! The watchdog: a run that makes no progress for `watchdog_cycles` stops with a report of
-//! every unit's state.
+//! every unit's state; `activity` is the progress it watches. Both walk the units through the
+//! registry ([`Machine::each_unit`]).
 
 use super::Machine;
+use std::ops::ControlFlow;
 
 /// Why a run stopped without finishing.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -26,41 +28,27 @@ impl std::fmt::Display for Deadlock {
 }
 
 impl Machine<'_> {
-    /// The watchdog's report: every unit's state.
+    /// The watchdog's report: every unit's state (`Unit::report`), one line each.
     pub(super) fn deadlock(&self) -> Deadlock {
-        let mut report = vec![format!(
-            "memory: port {}, {} in flight, {} grants",
-            if self.memory.port_busy(self.cycle) {
-                "busy"
-            } else {
-                "free"
-            },
-            self.memory.inflight(),
-            self.memory.stats.grants
-        )];
-        for (i, cl) in self.clusters.iter().enumerate() {
-            report.push(format!(
-                "cluster {i}: icu {} of {} stages full, ray buffer {}/{}, patch buffer {}",
-                cl.icu.occupied(),
-                cl.icu.depth(),
-                cl.ray_buffer.queue.len(),
-                cl.ray_buffer.queue.capacity(),
-                cl.patch_buffer.store.len()
-            ));
-            for (j, c) in cl.ctus.iter().enumerate() {
-                report.push(format!(
-                    "cluster {i} ctu {j}: {} shell {} remaining {} outstanding {} pending loads {}",
-                    c.state.name(),
-                    c.shell(),
-                    c.remaining(),
-                    c.outstanding(),
-                    c.pending_loads()
-                ));
-            }
-        }
+        let mut report = Vec::new();
+        let _ = self.each_unit(|id, u| {
+            report.push(format!("{id}: {}", u.report(self.cycle)));
+            ControlFlow::<()>::Continue(())
+        });
         Deadlock {
             cycle: self.cycle,
             report,
         }
+    }
+
+    /// A number that grows whenever anything moves: every unit's `Unit::activity` (steps,
+    /// grants, transfers) and the memory requests' transfers.
+    pub(super) fn activity(&self) -> u64 {
+        let mut a = self.links.requests.iter().map(|l| l.transfers).sum::<u64>();
+        let _ = self.each_unit(|_, u| {
+            a += u.activity();
+            ControlFlow::<()>::Continue(())
+        });
+        a
     }
 }

@@ -21,6 +21,7 @@ use crate::config::{BalanceTable, VictimPolicy};
 use crate::link::{Link, UnitId};
 use crate::machine::sink::Sink;
 use crate::msg::{Descriptor, Job, JobResult, RemoteResult, SplitOrder, WorkItem, JOB_WORDS};
+use crate::units::{Around, Unit};
 use std::collections::VecDeque;
 
 /// The balancer's end of its links (rule 7).
@@ -405,6 +406,42 @@ impl Balancer {
                 Some(v)
             }
         }
+    }
+}
+
+/// The balancer's cold paths: it acts when a request, a job, a descriptor or a result is due,
+/// or when a cluster would ask for work (only when balancing is on: otherwise it never
+/// ticks); its timer is the next of those.
+impl Unit for Balancer {
+    fn quiet(&self, now: u64, around: &Around) -> bool {
+        !self.cfg.enabled
+            || !(self.due(now)
+                || (0..self.requests.len()).any(|c| {
+                    self.would_request(c, (around.waiting)(c), !around.links.waiting_for(c))
+                }))
+    }
+
+    fn timer(&self, now: u64) -> Option<u64> {
+        Balancer::timer(self, now)
+    }
+
+    fn activity(&self) -> u64 {
+        self.stats.jobs_moved + self.stats.results_returned
+    }
+
+    fn done(&self) -> bool {
+        self.idle()
+    }
+
+    fn report(&self, _now: u64) -> String {
+        format!(
+            "{}, {} requests open, {} split orders out, {} jobs away, {} on the link",
+            if self.cfg.enabled { "on" } else { "off" },
+            self.requests.iter().flatten().count(),
+            self.orders_out,
+            self.away,
+            self.queued.iter().sum::<usize>()
+        )
     }
 }
 

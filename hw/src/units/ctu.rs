@@ -48,6 +48,7 @@ use crate::link::{Link, UnitCode, UnitId};
 use crate::machine::sink::Sink;
 use crate::msg::{Descriptor, Job, JobResult, MemRequest, PatchArrival};
 use crate::units::ray_pool::RayList;
+use crate::units::{Around, Unit};
 use bitvec::prelude::*;
 
 /// The traversal FSM's states.
@@ -917,6 +918,41 @@ impl Ctu {
                 self.state = self.enter_ray();
             }
         }
+    }
+}
+
+/// The CTU's cold paths: quiet while a DDA step runs or it waits at a join for loads only
+/// (or is done); its timer is the step's end.
+impl Unit for Ctu {
+    fn quiet(&self, now: u64, _: &Around) -> bool {
+        Ctu::quiet(self, now)
+    }
+
+    fn timer(&self, now: u64) -> Option<u64> {
+        Ctu::timer(self, now)
+    }
+
+    fn skip(&mut self, _now: u64, n: u64) {
+        Ctu::skip(self, n);
+    }
+
+    fn activity(&self) -> u64 {
+        self.stats.dda_steps + self.stats.patch_requests + self.stats.shells + self.stats.subshells
+    }
+
+    fn done(&self) -> bool {
+        Ctu::done(self)
+    }
+
+    fn report(&self, _now: u64) -> String {
+        format!(
+            "{} shell {} remaining {} outstanding {} pending loads {}",
+            self.state.name(),
+            self.shell(),
+            self.remaining(),
+            self.outstanding(),
+            self.pending_loads()
+        )
     }
 }
 

@@ -17,6 +17,7 @@ use crate::datapath::{self, Edges, Exceptions, Interpolated, RaySpace, Translate
 use crate::link::{Link, UnitCode, UnitId};
 use crate::machine::sink::Sink;
 use crate::msg::{Job, JobResult, RemoteResult};
+use crate::units::{Around, Unit};
 
 /// What a stage register holds besides the job.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -376,6 +377,30 @@ impl Icu {
         } else {
             self.stats.idle_cycles += 1;
         }
+    }
+}
+
+/// The ICU's cold paths: quiet and done when empty (a job inside moves every cycle); a jump
+/// counts its stages idle.
+impl Unit for Icu {
+    fn quiet(&self, _now: u64, _: &Around) -> bool {
+        self.is_empty()
+    }
+
+    fn skip(&mut self, _now: u64, n: u64) {
+        Icu::skip(self, n);
+    }
+
+    fn activity(&self) -> u64 {
+        self.stats.jobs_in + self.stats.results_out
+    }
+
+    fn done(&self) -> bool {
+        self.is_empty()
+    }
+
+    fn report(&self, _now: u64) -> String {
+        format!("{} of {} stages full", self.occupied(), self.depth())
     }
 }
 

@@ -13,6 +13,7 @@ use crate::config::ArbiterPolicy;
 use crate::link::{Link, UnitId};
 use crate::machine::sink::Sink;
 use crate::msg::{MemRequest, PatchArrival};
+use crate::units::{Around, Unit};
 use std::collections::VecDeque;
 
 /// The memory's write ports: each cluster's patch-buffer store (the buffer owns it).
@@ -234,6 +235,39 @@ impl Memory {
         });
         self.last_grant = i as u32;
         self.next = (i + 1) % n;
+    }
+}
+
+/// The memory's cold paths: quiet while no record is ready to deliver; its timer is the port
+/// freeing or the next record becoming ready.
+impl Unit for Memory {
+    fn quiet(&self, now: u64, _: &Around) -> bool {
+        self.inflight_ready(now).is_none()
+    }
+
+    fn timer(&self, now: u64) -> Option<u64> {
+        Memory::timer(self, now)
+    }
+
+    fn skip(&mut self, now: u64, n: u64) {
+        Memory::skip(self, now, n);
+    }
+
+    fn activity(&self) -> u64 {
+        self.stats.grants
+    }
+
+    fn done(&self) -> bool {
+        self.inflight() == 0
+    }
+
+    fn report(&self, now: u64) -> String {
+        format!(
+            "port {}, {} in flight, {} grants",
+            if self.port_busy(now) { "busy" } else { "free" },
+            self.inflight(),
+            self.stats.grants
+        )
     }
 }
 

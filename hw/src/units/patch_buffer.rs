@@ -3,6 +3,7 @@
 
 use crate::link::{Link, UnitCode, UnitId};
 use crate::msg::PatchArrival;
+use crate::units::{Around, Unit};
 
 /// Patch-buffer counters.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -69,6 +70,26 @@ impl PatchBuffer {
     #[inline(always)]
     pub fn commit_at(&mut self, now: u64) {
         self.store.commit_at(now);
+    }
+}
+
+/// The patch buffer's cold paths: quiet and done when its store is empty; its progress is
+/// the store's transfers.
+impl Unit for PatchBuffer {
+    fn quiet(&self, _now: u64, _: &Around) -> bool {
+        self.store.is_empty()
+    }
+
+    fn activity(&self) -> u64 {
+        self.store.transfers
+    }
+
+    fn done(&self) -> bool {
+        self.store.is_empty()
+    }
+
+    fn report(&self, _now: u64) -> String {
+        format!("{} patches", self.store.len())
     }
 }
 

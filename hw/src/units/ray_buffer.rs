@@ -14,6 +14,7 @@ use crate::link::{Link, UnitCode, UnitId};
 use crate::machine::sink::Sink;
 use crate::msg::{Descriptor, Job, SplitOrder, WorkItem};
 use crate::units::ray_pool::RayList;
+use crate::units::{Around, Unit};
 use std::collections::VecDeque;
 
 /// Ray-buffer counters.
@@ -340,6 +341,27 @@ impl RayBuffer {
         self.stats.jobs_in += 1;
         self.next = if i == k { 0 } else { i + 1 };
         true
+    }
+}
+
+/// The ray buffer's cold paths: quiet and done when its queue and descriptor store are
+/// empty; it counts nothing of its own in a jump.
+impl Unit for RayBuffer {
+    fn quiet(&self, _now: u64, _: &Around) -> bool {
+        self.is_empty()
+    }
+
+    fn done(&self) -> bool {
+        self.is_empty()
+    }
+
+    fn report(&self, _now: u64) -> String {
+        format!(
+            "{}/{} jobs, {} descriptors",
+            self.queue.len(),
+            self.queue.capacity(),
+            self.descriptors()
+        )
     }
 }
 
