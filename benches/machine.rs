@@ -9,7 +9,7 @@ use shellsim::Scene;
 use shellsim_hw::config::MachineConfig;
 use shellsim_hw::datapath::intersect;
 use shellsim_hw::machine::TickOrder;
-use shellsim_hw::trace::{Probe, SignalDecl};
+use shellsim_hw::trace::{Pipeline, Probe, SignalDecl};
 use shellsim_hw::Exceptions;
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -153,7 +153,7 @@ struct IssuedJobs {
 }
 
 impl Probe for IssuedJobs {
-    fn declare(&mut self, signals: &[SignalDecl]) {
+    fn declare(&mut self, signals: &[SignalDecl], _: &[Pipeline]) {
         let at = |scope: &str, name: &str| {
             signals
                 .iter()

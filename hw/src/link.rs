@@ -402,6 +402,7 @@ impl<T: Clone> Link<T> {
 
     /// Reports the link's registered valid, ready, occupancy and transfer count to `s` under
     /// `scope` ([`Link::SIGNALS`] of them). A link's waveform signals: add one here.
+    #[inline(always)]
     pub(crate) fn signals(&self, s: &mut impl Sink, scope: &str) {
         s.bits(scope, "valid", 1, self.valid() as u64);
         s.bits(scope, "ready", 1, self.ready() as u64);

@@ -1,9 +1,9 @@
-//! The trace interface: the machine declares its signals to a [`Probe`] once, then hands it
-//! one flat array of values per sample (after each clock edge), with the positions that
-//! changed since the last — for a probe that asks, with one [`StageShift`] entry per
-//! advanced ICU (whose layout fits the entry) in place of its later stages' changes, which
-//! [`apply_changes`] expands. The
-//! host's waveform writers implement it; hw/ knows nothing of files or formats.
+//! The trace interface: the machine declares its signals and its pipelines to a [`Probe`]
+//! once, then hands it one flat array of values per sample (after each clock edge), with the
+//! positions that changed since the last — for a probe that asks, with one entry naming a
+//! declared [`Pipeline`] per pipeline that advanced, in place of its later stages' changes,
+//! which [`apply_changes`] expands. The host's waveform writers implement it; hw/ knows
+//! nothing of files or formats.
 
 /// How a signal's value is to be read.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -31,14 +31,17 @@ pub struct SignalDecl {
 
 /// Receives the machine's signals: the layout once, then the values of every sample.
 pub trait Probe {
-    /// The layout, called once before the first sample.
-    fn declare(&mut self, signals: &[SignalDecl]);
+    /// The layout, called once before the first sample: the signals, and the pipelines
+    /// whose later stages a probe that [`Probe::shifts_stages`] moves itself (each
+    /// [`Pipeline::fits`], inside the signals; the entry [`Pipeline::entry`]`(k)` in a change
+    /// list says `pipelines[k]` advanced).
+    fn declare(&mut self, signals: &[SignalDecl], pipelines: &[Pipeline]);
     /// The values at cycle `t` (strictly increasing), one per declared signal, each masked
     /// to its width (a text signal's value is its name's index).
     fn sample(&mut self, t: u64, values: &[u64]);
     /// The values at cycle `t` as [`Probe::sample`] takes them, with `changed`: the
     /// positions, ascending, whose value differs from the previous sample's (at the first
-    /// sample, those not zero; with [`Probe::shifts_stages`], also [`StageShift`] entries).
+    /// sample, those not zero; with [`Probe::shifts_stages`], also [`Pipeline::entry`]s).
     /// A probe that keeps the values of the samples it saw writes
     /// only these; the default hands `values` to [`Probe::sample`]. The machine calls this
     /// one, having found the changes while filling the array.
@@ -47,11 +50,11 @@ pub trait Probe {
         self.sample(t, values);
     }
     /// True when the probe moves an advanced pipeline's later stages itself (the same answer
-    /// for the whole run): [`Probe::sample_changes`]'s lists then hold one [`StageShift`]
-    /// entry in place of their changes (apply a list with [`apply_changes`]), and `values` is
-    /// not kept at their positions — for each ICU whose layout fits the entry
-    /// ([`StageShift::encode`]); another's changes are listed as for any probe. It saves the machine a put per moving signal of every
-    /// later stage of every advanced ICU, and the hand-off of their changes.
+    /// for the whole run): [`Probe::sample_changes`]'s lists then hold one entry naming the
+    /// declared pipeline in place of their changes (apply a list with [`apply_changes`]), and
+    /// `values` is not kept at their positions; an undeclared pipeline's changes are listed
+    /// as any signal's. It saves the machine a put per moving signal of every later stage of
+    /// every advanced pipeline, and the hand-off of their changes.
     fn shifts_stages(&self) -> bool {
         false
     }
@@ -75,41 +78,41 @@ pub trait Probe {
 pub struct NoProbe;
 
 impl Probe for NoProbe {
-    fn declare(&mut self, _: &[SignalDecl]) {}
+    fn declare(&mut self, _: &[SignalDecl], _: &[Pipeline]) {}
     fn sample(&mut self, _: u64, _: &[u64]) {}
 }
 
-/// The flag of a change-list entry that is a [`StageShift`], not a position (positions are
-/// below it).
+/// The flag of a change-list entry that names an advanced [`Pipeline`], not a position
+/// (positions are below it).
 pub const STAGE_SHIFT: u32 = 1 << 31;
 
-/// An advanced pipeline's later stages, as one change-list entry: a probe whose
-/// [`Probe::shifts_stages`] is true gets this in place of their changes, and moves them itself.
-/// Stage k (1..=`later`) starts at `at + (k − 1)·stride`; its first `width` signals take the
-/// values stage k − 1 had at the last sample. The entry comes before stage 0's changes (it
-/// needs stage 0's last values); the shift's changes go before the first position at or past
-/// `at` (ascending order kept).
+/// A pipeline, declared once with the signals ([`Probe::declare`]): stage k (0..=`later`)
+/// starts at `at + (k − 1)·stride`, and when the pipeline advances, the first `width`
+/// signals of each later stage take the values the stage before had at the last sample. A
+/// probe that shifts stages gets the entry [`Pipeline::entry`] for it, before stage 0's
+/// changes (it needs stage 0's last values); the shift's changes go before the first
+/// position at or past `at` (ascending order kept).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct StageShift {
+pub struct Pipeline {
     /// Position of stage 1's first signal.
     pub at: usize,
-    /// Signals per stage (1..=15).
+    /// Signals per stage.
     pub stride: usize,
     /// Signals of a stage that move (1..=[`SHIFT_WIDTH`], at most `stride`).
     pub width: usize,
-    /// Stages after stage 0 (1..=255, spanning at most [`SHIFT_SPAN`] positions).
+    /// Stages after stage 0 (at least 1, spanning at most [`SHIFT_SPAN`] positions).
     pub later: usize,
 }
 
-/// The most signals a stage moves in a [`StageShift`].
+/// The most signals a stage moves in a [`Pipeline`].
 pub const SHIFT_WIDTH: usize = 4;
 
-/// The most positions a [`StageShift`] spans, stage 1's first to the last stage's last
+/// The most positions a [`Pipeline`]'s shift spans, stage 1's first to the last stage's last
 /// moving signal (a mask of its changes is one `u64`).
 pub const SHIFT_SPAN: usize = 64;
 
-/// A change-list entry that is not well formed: a position or a [`StageShift`] outside the
-/// layout.
+/// A change-list entry that is not well formed: a position outside the layout, or a
+/// pipeline not declared or not inside it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BadShift(pub u32);
 
@@ -127,34 +130,22 @@ impl From<BadShift> for std::io::Error {
     }
 }
 
-impl StageShift {
-    /// The entry: the flag, width (bits 28–30), stride (24–27), later (16–23), at (0–15).
-    /// None when a field does not fit (the walk then moves the stages itself).
-    pub fn encode(self) -> Option<u32> {
-        let fits = (1..=15).contains(&self.stride)
+impl Pipeline {
+    /// True when a probe can move its stages from one entry: at most [`SHIFT_WIDTH`] moving
+    /// signals a stage, at least one later stage, at most [`SHIFT_SPAN`] positions moved,
+    /// stage 0 inside the layout.
+    pub fn fits(&self) -> bool {
+        self.stride > 0
             && (1..=SHIFT_WIDTH.min(self.stride)).contains(&self.width)
-            && (1..=255).contains(&self.later)
+            && self.later >= 1
             && self.span() <= SHIFT_SPAN
             && self.at >= self.stride
-            && self.at < 1 << 16;
-        let code = STAGE_SHIFT
-            | (self.width as u32) << 28
-            | (self.stride as u32) << 24
-            | (self.later as u32) << 16
-            | self.at as u32;
-        fits.then_some(code)
     }
 
-    /// The shift of entry `code` (its flag set), when it lies inside `n` values.
-    pub fn decode(code: u32, n: usize) -> Option<StageShift> {
-        let s = StageShift {
-            at: (code & 0xFFFF) as usize,
-            stride: (code >> 24 & 0xF) as usize,
-            width: (code >> 28 & 0x7) as usize,
-            later: (code >> 16 & 0xFF) as usize,
-        };
-        let fits = code & STAGE_SHIFT != 0 && s.encode() == Some(code) && s.at + s.span() <= n;
-        fits.then_some(s)
+    /// The change-list entry that says declared pipeline number `k` advanced.
+    #[inline(always)]
+    pub fn entry(k: u32) -> u32 {
+        STAGE_SHIFT | k
     }
 
     /// Positions from stage 1's first to the last stage's last moving signal.
@@ -179,12 +170,14 @@ pub trait ChangeSink {
     type Error: From<BadShift>;
     /// The last sample's values (as the changes so far left them).
     fn last(&mut self) -> &mut [u64];
+    /// Declared pipeline number `k` ([`Probe::declare`]).
+    fn pipeline(&self, k: usize) -> Option<Pipeline>;
     /// Position `i` changed to `v` (already stored in [`ChangeSink::last`]).
     fn change(&mut self, i: usize, v: u64) -> Result<(), Self::Error>;
 }
 
 /// Applies a sample's change list to `sink`: each entry (a position and its new value, or a
-/// [`StageShift`] and any value) in turn, every changed position handed to
+/// [`Pipeline::entry`] and any value) in turn, every changed position handed to
 /// [`ChangeSink::change`] with its new value, ascending. A shift is expanded in place: its
 /// changes before the first position at or past its `at` (or at the end). An entry outside
 /// the values is an error ([`BadShift`]). Past one compare a plain position costs what it
@@ -194,8 +187,8 @@ pub fn apply_changes<S: ChangeSink>(
     sink: &mut S,
     entries: impl IntoIterator<Item = (u64, u64)>,
 ) -> Result<(), S::Error> {
-    // The first position that needs more than a store: a shift entry (flagged positions are
-    // all past it) or, one pending, its `at`.
+    // The first position that needs more than a store: a pipeline's entry (flagged entries
+    // are all past it) or, one pending, its `at`.
     let mut next = STAGE_SHIFT as u64;
     let mut pending = None;
     for (i, v) in entries {
@@ -205,7 +198,7 @@ pub fn apply_changes<S: ChangeSink>(
                 next = STAGE_SHIFT as u64;
             }
             if i >= next {
-                let p = start_shift(sink.last(), i)?;
+                let p = start_shift(sink, i)?;
                 next = p.0.at as u64;
                 pending = Some(p);
                 continue;
@@ -223,12 +216,20 @@ pub fn apply_changes<S: ChangeSink>(
     }
 }
 
-/// The shift of entry `code` inside `last`, with stage 0's last values.
+/// The declared pipeline entry `code` names, inside `sink`'s values, with stage 0's last
+/// values.
 #[inline(never)]
-fn start_shift(last: &[u64], code: u64) -> Result<(StageShift, [u64; SHIFT_WIDTH]), BadShift> {
+fn start_shift<S: ChangeSink>(
+    sink: &mut S,
+    code: u64,
+) -> Result<(Pipeline, [u64; SHIFT_WIDTH]), BadShift> {
     let code = u32::try_from(code).unwrap_or(u32::MAX);
-    let s = StageShift::decode(code, last.len()).ok_or(BadShift(code))?;
-    Ok((s, s.carry(last)))
+    let last = sink.last().len();
+    let p = sink
+        .pipeline((code & !STAGE_SHIFT) as usize)
+        .filter(|p| p.fits() && p.at + p.span() <= last)
+        .ok_or(BadShift(code))?;
+    Ok((p, p.carry(sink.last())))
 }
 
 /// Moves a shift's later stages in `sink`'s values, stage 0's last values into stage 1 and
@@ -237,13 +238,24 @@ fn start_shift(last: &[u64], code: u64) -> Result<(StageShift, [u64; SHIFT_WIDTH
 #[inline(never)]
 fn shift<S: ChangeSink>(
     sink: &mut S,
-    (s, mut carry): (StageShift, [u64; SHIFT_WIDTH]),
+    (s, mut carry): (Pipeline, [u64; SHIFT_WIDTH]),
 ) -> Result<(), S::Error> {
-    // The ICU's layout (four signals a stage, three moving), its later stages whole inside
-    // the values (the result stage's t is the layout's), in one pass of whole stages.
-    if (s.width, s.stride) == (3, 4) {
-        if let Some(w) = sink.last().get_mut(s.at..s.at + 4 * s.later) {
-            let mask = move_icu_stages(w, &carry);
+    // Stages of at most four signals whose later stages lie whole inside the values: one
+    // pass of whole stages, the carry in registers.
+    if s.stride <= SHIFT_WIDTH {
+        if let Some(w) = sink.last().get_mut(s.at..s.at + s.stride * s.later) {
+            let mask = match (s.width, s.stride) {
+                (1, 1) => move_whole::<1, 1>(w, &carry),
+                (1, 2) => move_whole::<1, 2>(w, &carry),
+                (2, 2) => move_whole::<2, 2>(w, &carry),
+                (1, 3) => move_whole::<1, 3>(w, &carry),
+                (2, 3) => move_whole::<2, 3>(w, &carry),
+                (3, 3) => move_whole::<3, 3>(w, &carry),
+                (1, 4) => move_whole::<1, 4>(w, &carry),
+                (2, 4) => move_whole::<2, 4>(w, &carry),
+                (3, 4) => move_whole::<3, 4>(w, &carry),
+                _ => move_whole::<4, 4>(w, &carry),
+            };
             return each_set(sink, s.at, mask);
         }
     }
@@ -272,18 +284,22 @@ fn each_set<S: ChangeSink>(sink: &mut S, at: usize, mut mask: u64) -> Result<(),
     Ok(())
 }
 
-/// [`move_stages`] for the ICU's stages of four signals, three moving, `w` the later stages
-/// whole (at most 16: [`SHIFT_SPAN`]): the carry in registers, no bound check per signal.
+/// [`move_stages`] for `w` the later stages whole, `S` signals a stage of which the first
+/// `W` move: the carry in registers, no bound check per signal (the positions a
+/// [`Pipeline`] that fits moves are below [`SHIFT_SPAN`], so the mask holds them).
 #[inline(always)]
-fn move_icu_stages(w: &mut [u64], carry: &[u64; SHIFT_WIDTH]) -> u64 {
-    let (mut c0, mut c1, mut c2) = (carry[0], carry[1], carry[2]);
+fn move_whole<const W: usize, const S: usize>(w: &mut [u64], carry: &[u64; SHIFT_WIDTH]) -> u64 {
+    let mut c = [0u64; W];
+    c.copy_from_slice(&carry[..W]);
     let mut mask = 0u64;
-    for (k, st) in w.chunks_exact_mut(4).take(SHIFT_SPAN / 4).enumerate() {
-        let (o0, o1, o2) = (st[0], st[1], st[2]);
-        (st[0], st[1], st[2]) = (c0, c1, c2);
-        let m = (o0 != c0) as u64 | ((o1 != c1) as u64) << 1 | ((o2 != c2) as u64) << 2;
-        mask |= m << (4 * k);
-        (c0, c1, c2) = (o0, o1, o2);
+    for (k, st) in w.as_chunks_mut::<S>().0.iter_mut().enumerate() {
+        let mut m = 0u64;
+        for j in 0..W {
+            let old = std::mem::replace(&mut st[j], c[j]);
+            m |= ((old != c[j]) as u64) << j;
+            c[j] = old;
+        }
+        mask |= m << (S * k);
     }
     mask
 }
@@ -314,14 +330,18 @@ fn move_stages<const W: usize>(
     mask
 }
 
-/// A [`ChangeSink`] that only keeps the values.
-pub struct KeepValues<'a>(pub &'a mut [u64]);
+/// A [`ChangeSink`] that only keeps the values (and knows the declared pipelines).
+pub struct KeepValues<'a>(pub &'a mut [u64], pub &'a [Pipeline]);
 
 impl ChangeSink for KeepValues<'_> {
     type Error = BadShift;
     #[inline(always)]
     fn last(&mut self) -> &mut [u64] {
         self.0
+    }
+    #[inline(always)]
+    fn pipeline(&self, k: usize) -> Option<Pipeline> {
+        self.1.get(k).copied()
     }
     #[inline(always)]
     fn change(&mut self, _: usize, _: u64) -> Result<(), BadShift> {

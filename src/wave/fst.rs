@@ -24,7 +24,7 @@ use fst_writer::{
     FstBodyWriter, FstCompression, FstEnumHandle, FstFileType, FstHeaderWriter, FstInfo,
     FstScopeType, FstSignalId, FstSignalType, FstVarDirection, FstVarType,
 };
-use shellsim_hw::trace::{apply_changes, ChangeSink};
+use shellsim_hw::trace::{apply_changes, ChangeSink, Pipeline};
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 
@@ -196,8 +196,9 @@ impl Body for FstBody {
         self.prev.len()
     }
 
-    fn state(&mut self) -> (&mut Clock, &mut [u64]) {
-        (&mut self.clock, &mut self.prev)
+    /// No pipeline: an FST's probe does not shift stages (`Probe::shifts_stages`).
+    fn state(&mut self) -> (&mut Clock, &mut [u64], &[Pipeline]) {
+        (&mut self.clock, &mut self.prev, &[])
     }
 
     /// Time `t` and every declared value (the last sample's): FST has no `$dumpvars`, the
@@ -240,6 +241,12 @@ impl ChangeSink for FstBody {
     #[inline(always)]
     fn last(&mut self) -> &mut [u64] {
         &mut self.prev
+    }
+
+    /// None: an FST's probe does not shift stages (`Probe::shifts_stages`), so no entry
+    /// names a pipeline.
+    fn pipeline(&self, _: usize) -> Option<Pipeline> {
+        None
     }
 
     /// A declared signal's change (after time `now`, once per sample), to the crate now.

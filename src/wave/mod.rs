@@ -31,7 +31,7 @@ pub use signal::{state_bits, Signal, SignalKind, WaveSummary};
 use crate::error::{Error, Result};
 use crate::output::TempFile;
 use fst::{FstBody, FstHeader};
-use shellsim_hw::trace::{Probe, SignalDecl, SignalKind as HwKind, STAGE_SHIFT};
+use shellsim_hw::trace::{Pipeline, Probe, SignalDecl, SignalKind as HwKind, STAGE_SHIFT};
 use signal::{token, Slot};
 use std::fs::File;
 use std::io;
@@ -62,6 +62,8 @@ pub struct WaveWriter {
     stream: Option<SampleStream>,
     opts: WaveOptions,
     slots: Vec<Slot>,
+    /// The pipelines the machine declared (the VCD's thread moves their stages).
+    pipelines: Vec<Pipeline>,
     /// Signal order of the header (indices into `slots`).
     declared: Vec<usize>,
     /// The last sample's cycle (the thread keeps the values and the window).
@@ -113,6 +115,7 @@ impl WaveWriter {
             stream: None,
             opts,
             slots: Vec::new(),
+            pipelines: Vec::new(),
             declared: Vec::new(),
             last_t: None,
             last: Vec::new(),
@@ -259,6 +262,7 @@ impl WaveWriter {
                     &self.path,
                     over.clone(),
                 )?;
+                let body = body.with_pipelines(&self.pipelines);
                 (SampleStream::start(body, win, over), order)
             }
         };
@@ -269,7 +273,7 @@ impl WaveWriter {
 }
 
 impl Probe for WaveWriter {
-    fn declare(&mut self, signals: &[SignalDecl]) {
+    fn declare(&mut self, signals: &[SignalDecl], pipelines: &[Pipeline]) {
         if self.error.is_some() {
             return;
         }
@@ -316,6 +320,17 @@ impl Probe for WaveWriter {
                 }
             })
             .collect();
+        if let Some(p) = pipelines
+            .iter()
+            .find(|p| !p.fits() || p.at + p.span() > signals.len())
+        {
+            self.fail(format!(
+                "a pipeline {p:?} that does not fit the {} signals",
+                signals.len()
+            ));
+            return;
+        }
+        self.pipelines = pipelines.to_vec();
         self.last = vec![0; self.slots.len()];
         if let Err(e) = self.write_header() {
             self.fail(format!("writing: {e}"));
@@ -341,8 +356,8 @@ impl Probe for WaveWriter {
 
     fn sample_changes(&mut self, t: u64, values: &[u64], changed: &[u32]) {
         let n = values.len();
-        // A stage shift last (its ICU the layout's last signals, its t unchanged) is checked
-        // on the thread, with every shift (`apply_changes`).
+        // A pipeline's entry last (its ICU the layout's last signals, its t unchanged) is
+        // checked on the thread, with every entry (`apply_changes`).
         let past = |&i: &u32| i & STAGE_SHIFT == 0 && i as usize >= n;
         if changed.len() > n || changed.last().is_some_and(past) {
             self.fail(format!(
@@ -398,12 +413,15 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("t.vcd");
         let mut w = WaveWriter::create(&p, WaveOptions::default()).unwrap();
-        w.declare(&[
-            decl("top.a", "x", 4, HwKind::Bits),
-            decl("top.a", "v", 1, HwKind::Bits),
-            decl("top", "state", 1, HwKind::Text(&["IDLE", "BUSY WAIT"])),
-            decl("top.a", "t", 8, HwKind::Fixed { frac: 4 }),
-        ]);
+        w.declare(
+            &[
+                decl("top.a", "x", 4, HwKind::Bits),
+                decl("top.a", "v", 1, HwKind::Bits),
+                decl("top", "state", 1, HwKind::Text(&["IDLE", "BUSY WAIT"])),
+                decl("top.a", "t", 8, HwKind::Fixed { frac: 4 }),
+            ],
+            &[],
+        );
         for (t, v) in [(0u64, 0u64), (1, 0), (2, 3), (5, 3), (6, 1)] {
             let raw = (-(v as i64)) as u64 & 0xFF;
             w.sample(t, &[v, (v > 0) as u64, (v > 2) as u64, raw]);
@@ -436,7 +454,7 @@ mod tests {
             ..Default::default()
         };
         let mut w = WaveWriter::create(&p, opts).unwrap();
-        w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
+        w.declare(&[decl("m", "x", 8, HwKind::Bits)], &[]);
         for (t, v) in [(0u64, 1u64), (2, 2), (6, 3), (7, 4), (9, 5), (12, 6)] {
             w.sample(t, &[v]);
         }
@@ -465,7 +483,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("x.vcd");
         let mut w = WaveWriter::create(&p, WaveOptions::default()).unwrap();
-        w.declare(&[decl("m", "x", 8, HwKind::Bits)]);
+        w.declare(&[decl("m", "x", 8, HwKind::Bits)], &[]);
         w.sample(0, &[1]);
         (dir, p, w)
     }
@@ -489,7 +507,7 @@ mod tests {
                 ..WaveOptions::default()
             };
             let mut w = WaveWriter::create(&p, opts).unwrap();
-            w.declare(&[decl("m", "x", 32, HwKind::Bits)]);
+            w.declare(&[decl("m", "x", 32, HwKind::Bits)], &[]);
             let mut sent = 0;
             for t in 0..1_000_000u64 {
                 if w.stop() {
@@ -551,7 +569,7 @@ mod tests {
             ..WaveOptions::default()
         };
         let mut w = WaveWriter::create(&p, opts).unwrap();
-        w.declare(&layout());
+        w.declare(&layout(), &[]);
         let mut last = vec![0u64; 4];
         for (t, v) in samples() {
             if change_lists {

@@ -5,7 +5,7 @@
 //! bytes do not depend on the timing. Here too the window clock every body keeps.
 
 use super::options::Window;
-use shellsim_hw::trace::{apply_changes, KeepValues};
+use shellsim_hw::trace::{apply_changes, KeepValues, Pipeline};
 use std::fs::File;
 use std::io;
 use std::sync::atomic::AtomicBool;
@@ -119,7 +119,7 @@ impl SampleStream {
         head[0] = t;
         head[1] = changed.len() as u64;
         for (p, &i) in pairs.chunks_exact_mut(2).zip(changed) {
-            // A stage shift (`Probe::shifts_stages`) is an entry, not a position: no value.
+            // A pipeline's entry (`Probe::shifts_stages`) is not a position: no value.
             p[0] = i as u64;
             p[1] = values.get(i as usize).copied().unwrap_or(0);
         }
@@ -212,8 +212,8 @@ pub(crate) trait Body: Send + 'static {
     fn begin(&mut self) -> io::Result<()> {
         Ok(())
     }
-    /// The window clock and the last sample's values.
-    fn state(&mut self) -> (&mut Clock, &mut [u64]);
+    /// The window clock, the last sample's values and the pipelines the probe declared.
+    fn state(&mut self) -> (&mut Clock, &mut [u64], &[Pipeline]);
     /// Opens the window at `t`: the time and every declared value (those of the last
     /// sample).
     fn dump_all(&mut self, t: u64) -> io::Result<()>;
@@ -231,9 +231,13 @@ pub(crate) trait Body: Send + 'static {
         }
         match step {
             Step::Changes => self.write_changes(t, changes),
-            Step::Take => apply(self.state().1, changes),
+            Step::Take => {
+                let (_, values, pipelines) = self.state();
+                apply(values, pipelines, changes)
+            }
             Step::TakeAndOpen => {
-                apply(self.state().1, changes)?;
+                let (_, values, pipelines) = self.state();
+                apply(values, pipelines, changes)?;
                 self.dump_all(t)
             }
         }
@@ -252,14 +256,14 @@ pub(crate) trait Body: Send + 'static {
 }
 
 /// A sample record's entries as (position, value): the words `SampleStream::push` wrote,
-/// position and value in turn (or a stage shift and zero, which [`apply_changes`] expands).
+/// position and value in turn (or a pipeline's entry and zero, which [`apply_changes`] expands).
 #[inline(always)]
 pub(crate) fn entries(record: &[u64]) -> impl Iterator<Item = (u64, u64)> + '_ {
     record.chunks_exact(2).map(|c| (c[0], c[1]))
 }
 
-/// Applies a sample record's changes to `values` (the last sample's), its stage shifts
-/// expanded, writing nothing.
-pub(crate) fn apply(values: &mut [u64], record: &[u64]) -> io::Result<()> {
-    apply_changes(&mut KeepValues(values), entries(record)).map_err(io::Error::from)
+/// Applies a sample record's changes to `values` (the last sample's), its advanced
+/// `pipelines` shifted, writing nothing.
+pub(crate) fn apply(values: &mut [u64], pipelines: &[Pipeline], record: &[u64]) -> io::Result<()> {
+    apply_changes(&mut KeepValues(values, pipelines), entries(record)).map_err(io::Error::from)
 }

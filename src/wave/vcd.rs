@@ -20,7 +20,7 @@ use super::blockfile::BlockOut;
 use super::options::{WaveOptions, Window};
 use super::signal::{ScopeNode, Signal, SignalKind, Slot};
 use super::stream::{entries, Body, BodyEnd, BodyError, Clock};
-use shellsim_hw::trace::{apply_changes, ChangeSink};
+use shellsim_hw::trace::{apply_changes, ChangeSink, Pipeline};
 use std::fs::File;
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
@@ -43,6 +43,8 @@ pub(super) struct VcdBody {
     declared: Vec<usize>,
     /// The last sample's values (those holding now).
     prev: Vec<u64>,
+    /// The pipelines the probe declared, whose later stages this body moves itself.
+    pipelines: Vec<Pipeline>,
     clock: Clock,
     /// The sample being written, and whether its `#t` is out.
     now: u64,
@@ -110,6 +112,7 @@ impl VcdBody {
             texts: lines.texts,
             declared: lines.order.clone(),
             prev: vec![0; slots.len()],
+            pipelines: Vec::new(),
             clock: Clock::default(),
             now: 0,
             stamped: false,
@@ -128,6 +131,12 @@ impl VcdBody {
             over: stop,
         };
         Ok((body, lines.order))
+    }
+
+    /// The body, moving the later stages of the declared `pipelines` itself.
+    pub(super) fn with_pipelines(mut self, pipelines: &[Pipeline]) -> Self {
+        self.pipelines = pipelines.to_vec();
+        self
     }
 
     /// Room for the next line (`margin` bytes at `at`), the bytes written out first once
@@ -215,8 +224,8 @@ impl Body for VcdBody {
         })
     }
 
-    fn state(&mut self) -> (&mut Clock, &mut [u64]) {
-        (&mut self.clock, &mut self.prev)
+    fn state(&mut self) -> (&mut Clock, &mut [u64], &[Pipeline]) {
+        (&mut self.clock, &mut self.prev, &self.pipelines)
     }
 
     /// `#t` and the values in a `$dumpvars` block.
@@ -245,6 +254,10 @@ impl ChangeSink for VcdBody {
     #[inline(always)]
     fn last(&mut self) -> &mut [u64] {
         &mut self.prev
+    }
+
+    fn pipeline(&self, k: usize) -> Option<Pipeline> {
+        self.pipelines.get(k).copied()
     }
 
     /// The line of a declared signal, after `#t` (once per sample).

@@ -296,7 +296,11 @@ impl ChangeLog {
 }
 
 impl shellsim_hw::trace::Probe for ChangeLog {
-    fn declare(&mut self, signals: &[shellsim_hw::trace::SignalDecl]) {
+    fn declare(
+        &mut self,
+        signals: &[shellsim_hw::trace::SignalDecl],
+        _: &[shellsim_hw::trace::Pipeline],
+    ) {
         self.names = signals
             .iter()
             .map(|d| format!("{}.{}", d.scope, d.name))
@@ -623,10 +627,17 @@ struct StageProbe {
     shifts: bool,
     /// Shift entries seen.
     shift_entries: u64,
+    /// The pipelines the machine declared.
+    pipelines: Vec<shellsim_hw::trace::Pipeline>,
 }
 
 impl shellsim_hw::trace::Probe for StageProbe {
-    fn declare(&mut self, signals: &[shellsim_hw::trace::SignalDecl]) {
+    fn declare(
+        &mut self,
+        signals: &[shellsim_hw::trace::SignalDecl],
+        pipelines: &[shellsim_hw::trace::Pipeline],
+    ) {
+        self.pipelines = pipelines.to_vec();
         for c in 0.. {
             let mut icu = Vec::new();
             for k in 0.. {
@@ -659,7 +670,7 @@ impl shellsim_hw::trace::Probe for StageProbe {
         let entries = changed
             .iter()
             .map(|&c| (c as u64, values.get(c as usize).copied().unwrap_or(0)));
-        let mut keep = shellsim_hw::trace::KeepValues(&mut self.values);
+        let mut keep = shellsim_hw::trace::KeepValues(&mut self.values, &self.pipelines);
         shellsim_hw::trace::apply_changes(&mut keep, entries).expect("well-formed lists");
     }
     fn shifts_stages(&self) -> bool {
@@ -739,6 +750,13 @@ fn stages_are_the_icus_own(shifts: bool) {
         "{} shifts",
         p.shift_entries
     );
+    // Each ICU's stages declared once as a pipeline: stage 1 right after stage 0's four
+    // signals, three of them moving, every later stage.
+    assert_eq!(p.pipelines.len(), p.stages.len());
+    for (pipe, icu) in p.pipelines.iter().zip(&p.stages) {
+        assert_eq!((pipe.at, pipe.stride, pipe.width), (icu[1][0], 4, 3));
+        assert_eq!(pipe.later, icu.len() - 1);
+    }
 }
 
 /// `RunStats::verdict` (what `shellsim run` exits 1 on) catches a counter that breaks a

@@ -1105,7 +1105,11 @@ impl shellsim_hw::trace::Probe for Keeping {
     fn wants(&self, scope: &str) -> bool {
         (self.keep)(scope)
     }
-    fn declare(&mut self, signals: &[shellsim_hw::trace::SignalDecl]) {
+    fn declare(
+        &mut self,
+        signals: &[shellsim_hw::trace::SignalDecl],
+        _: &[shellsim_hw::trace::Pipeline],
+    ) {
         self.declared = signals.iter().map(|d| d.scope.clone()).collect();
     }
     fn sample(&mut self, _: u64, _: &[u64]) {

@@ -10,7 +10,8 @@
 //! CTU's signals (final) when so at the last sample too, a CTU that did not tick, a link no
 //! edge touched, a stage's t before the result stage (always zero). For a probe that
 //! [`Probe::shifts_stages`], an advanced ICU's later stages are not moved in the array: one
-//! [`StageShift`] entry in the list stands for them, and the probe moves its own copy.
+//! entry naming the ICU's [`Pipeline`], declared once with the layout, stands for them in the
+//! list, and the probe moves its own copy.
 //!
 //! The run owns a [`Sampler`] that keeps all of this — the scopes, the arrays and what each
 //! unit showed at the last sample (quiet or not, an ICU's ring position, a CTU's active
@@ -19,7 +20,7 @@
 use super::links::{probe_link, LinkShown, Section};
 use super::sink::{Shift, Sink, Stages};
 use super::Machine;
-use crate::trace::{Probe, SignalDecl, SignalKind, StageShift};
+use crate::trace::{Pipeline, Probe, SignalDecl, SignalKind};
 use crate::units::ctu::Ctu;
 use crate::units::icu::Icu;
 
@@ -32,12 +33,47 @@ fn mask(width: u32) -> u64 {
     }
 }
 
-/// Collects the layout.
-struct Declare(Vec<SignalDecl>);
+/// Collects the layout: the signals, and the pipelines a probe can shift with the cluster
+/// each belongs to.
+#[derive(Default)]
+struct Declare {
+    signals: Vec<SignalDecl>,
+    pipelines: Vec<Pipeline>,
+    /// Per cluster: its pipeline's number among `pipelines` ([`NO_PIPELINE`]: none).
+    pipeline_of: Vec<u32>,
+}
+
+/// A cluster whose ICU has no declared pipeline (left out, or its stages do not fit one).
+const NO_PIPELINE: u32 = u32::MAX;
 
 impl Sink for Declare {
+    /// An ICU's stages: declared as a pipeline when they fit one, stage 0 at the next
+    /// position (the walk then reports every stage).
+    fn shift_stages(&mut self, stages: Stages) -> Shift {
+        let Stages {
+            cluster: c,
+            stride,
+            width,
+            signals: n,
+            ..
+        } = stages;
+        let p = Pipeline {
+            at: self.signals.len() + stride,
+            stride,
+            width,
+            later: (n / stride.max(1)).saturating_sub(1),
+        };
+        if width <= CARRY && n >= 2 * stride && p.fits() {
+            if self.pipeline_of.len() <= c {
+                self.pipeline_of.resize(c + 1, NO_PIPELINE);
+            }
+            self.pipeline_of[c] = self.pipelines.len() as u32;
+            self.pipelines.push(p);
+        }
+        Shift::Walk
+    }
     fn bits(&mut self, scope: &str, name: &'static str, width: u32, _: u64) {
-        self.0.push(SignalDecl {
+        self.signals.push(SignalDecl {
             scope: scope.to_string(),
             name,
             width,
@@ -45,7 +81,7 @@ impl Sink for Declare {
         });
     }
     fn text(&mut self, scope: &str, name: &'static str, names: &'static [&'static str], _: u64) {
-        self.0.push(SignalDecl {
+        self.signals.push(SignalDecl {
             scope: scope.to_string(),
             name,
             width: 1,
@@ -53,7 +89,7 @@ impl Sink for Declare {
         });
     }
     fn fixed(&mut self, scope: &str, name: &'static str, width: u32, frac: u32, _: i64) {
-        self.0.push(SignalDecl {
+        self.signals.push(SignalDecl {
             scope: scope.to_string(),
             name,
             width,
@@ -89,7 +125,7 @@ trait Arrays {
     fn set(&mut self, listed: &mut usize, at: usize, v: u64) -> u64;
     /// The value at position `at`.
     fn get(&self, at: usize) -> u64;
-    /// Lists the entry `code` (a [`StageShift`]) at `*listed`, whatever the values.
+    /// Lists the entry `code` (a [`Pipeline::entry`]) at `*listed`, whatever the values.
     fn list(&mut self, listed: &mut usize, code: u32);
 }
 
@@ -181,11 +217,11 @@ struct Fill<'a, A> {
     /// for [`Arrays::FILLED`] ones.
     filled_before: bool,
     /// Stage 0's moving values at the last sample, kept by [`Sink::shift_stages`] for
-    /// [`Sink::move_stages`] (unless it listed a [`StageShift`]: `shifted`).
+    /// [`Sink::move_stages`] (unless it listed a pipeline's entry: `shifted`).
     carry: [u64; CARRY],
     /// The probe moves the later stages itself ([`Probe::shifts_stages`]).
     shifts: bool,
-    /// The last [`Sink::shift_stages`] listed a [`StageShift`] (its stages not moved here).
+    /// The last [`Sink::shift_stages`] listed a pipeline's entry (its stages not moved here).
     shifted: bool,
 }
 
@@ -280,16 +316,12 @@ impl<A: Arrays> Sink for Fill<'_, A> {
             self.pos += n;
             return Shift::Held;
         }
-        // The probe moves them itself: one entry, ahead of stage 0's changes.
-        let shift = StageShift {
-            at: self.pos + stride,
-            stride,
-            width,
-            later: n / stride - 1,
-        };
+        // The probe moves them itself: one entry naming the declared pipeline, ahead of
+        // stage 0's changes.
         self.shifted = false;
-        if let (true, Some(code)) = (self.shifts, shift.encode()) {
-            self.arrays.list(&mut self.listed, code);
+        let k = self.last.pipelines.get(c).copied().unwrap_or(NO_PIPELINE);
+        if self.shifts && k != NO_PIPELINE {
+            self.arrays.list(&mut self.listed, Pipeline::entry(k));
             self.shifted = true;
             return Shift::Moved;
         }
@@ -366,6 +398,8 @@ struct Last<'a> {
     /// The cycle of the last sample (0 before the first, whose fill writes every signal): a
     /// link whose stamp is past it has changed since ([`Sink::link_moved`]).
     since: u64,
+    /// Per cluster: its ICU's declared pipeline ([`NO_PIPELINE`]: none).
+    pipelines: &'a [u32],
 }
 
 /// What a run keeps to sample the machine's waveform, none of it in the model: the scopes
@@ -389,6 +423,8 @@ pub struct Sampler {
     counts: Vec<u64>,
     /// The cycle of the last sample (0 before the first).
     since: u64,
+    /// Per cluster: its ICU's declared pipeline ([`NO_PIPELINE`]: none).
+    pipeline_of: Vec<u32>,
     /// The value array holds a whole sample (after the first fill).
     filled: bool,
 }
@@ -403,10 +439,11 @@ impl Sampler {
                 // Units whose scopes the probe keeps none of are left out of the layout.
                 let wants = |s: &str| p.wants(s);
                 let sc = Scopes::new(m, &wants);
-                let mut d = Declare(Vec::new());
+                let mut d = Declare::default();
                 m.walk(&sc, &mut d);
-                p.declare(&d.0);
-                let n = d.0.len();
+                p.declare(&d.signals, &d.pipelines);
+                let n = d.signals.len();
+                self.pipeline_of = d.pipeline_of;
                 self.values = vec![0; n.max(FILL_CAP)];
                 self.changes = vec![0; n.max(LIST_CAP)];
                 self.signals = n;
@@ -423,6 +460,7 @@ impl Sampler {
             ring: &mut self.ring,
             counts: &mut self.counts,
             since: self.since,
+            pipelines: &self.pipeline_of,
         };
         let fixed = (
             <&mut [u64; FILL_CAP]>::try_from(&mut self.values[..]),
@@ -771,6 +809,7 @@ mod tests {
             ring,
             counts: &mut [],
             since: 0,
+            pipelines: &[0],
         }
     }
 
@@ -819,7 +858,7 @@ mod tests {
         assert_eq!(changes[..CHANGED.len()], CHANGED);
     }
 
-    /// With a probe that shifts stages itself, the fill lists one [`StageShift`] ahead of
+    /// With a probe that shifts stages itself, the fill lists its pipeline's entry ahead of
     /// stage 0's changes and leaves the later stages as they were;
     /// [`crate::trace::apply_changes`] on the last sample then gives the same values and the
     /// same changes, ascending.
@@ -831,14 +870,15 @@ mod tests {
         advance(&mut f);
         let listed = f.listed;
         assert_eq!(f.pos, 12);
-        let shift = StageShift {
+        let pipe = Pipeline {
             at: 4,
             stride: 4,
             width: 3,
             later: 2,
         };
-        // The shift, stage 0's three changes (1, 7, 8 → 0), the result stage's t (3 → 4).
-        let want = [shift.encode().expect("fits"), 0, 1, 2, 11];
+        // The pipeline's entry, stage 0's three changes (1, 7, 8 → 0), the result stage's t
+        // (3 → 4).
+        let want = [Pipeline::entry(0), 0, 1, 2, 11];
         assert_eq!(changes[..listed], want);
         // Stages 1 and 2 (but t) untouched here.
         assert_eq!(values[4..11], LAST[4..11]);
@@ -846,20 +886,23 @@ mod tests {
         let entries = changes[..listed]
             .iter()
             .map(|&c| (c as u64, values.get(c as usize).copied().unwrap_or(0)));
-        let mut got = Listed(&mut last, Vec::new());
+        let mut got = Listed(&mut last, Vec::new(), vec![pipe]);
         crate::trace::apply_changes(&mut got, entries).expect("well formed");
         let got = got.1;
         assert_eq!(last, NEXT);
         assert_eq!(got, CHANGED);
     }
 
-    /// The values, and the positions changed, in the order given.
-    struct Listed<'a>(&'a mut [u64], Vec<u32>);
+    /// The values, and the positions changed, in the order given; the declared pipelines.
+    struct Listed<'a>(&'a mut [u64], Vec<u32>, Vec<Pipeline>);
 
     impl crate::trace::ChangeSink for Listed<'_> {
         type Error = crate::trace::BadShift;
         fn last(&mut self) -> &mut [u64] {
             self.0
+        }
+        fn pipeline(&self, k: usize) -> Option<Pipeline> {
+            self.2.get(k).copied()
         }
         fn change(&mut self, i: usize, _: u64) -> Result<(), Self::Error> {
             self.1.push(i as u32);
@@ -867,21 +910,29 @@ mod tests {
         }
     }
 
-    /// A shift entry that does not fit the values is an error, not a panic.
+    /// A pipeline's entry whose pipeline is not declared, or does not lie inside the values,
+    /// is an error, not a panic; so is a position outside them.
     #[test]
     fn a_shift_outside_the_values_is_an_error() {
-        let shift = StageShift {
+        let pipes = [Pipeline {
             at: 4,
             stride: 4,
             width: 3,
             later: 8,
-        };
-        let code = shift.encode().expect("fits");
+        }];
         let mut last = vec![0u64; 12];
-        for (entry, bad) in [((code as u64, 0), code), ((12, 1), 12)] {
-            let r = crate::trace::apply_changes(&mut KeepValues(&mut last), [entry]);
+        let (inside, undeclared) = (Pipeline::entry(0), Pipeline::entry(1));
+        for (entry, bad) in [
+            ((inside as u64, 0), inside),
+            ((undeclared as u64, 0), undeclared),
+            ((12, 1), 12),
+        ] {
+            let r = crate::trace::apply_changes(&mut KeepValues(&mut last, &pipes), [entry]);
             assert_eq!(r, Err(crate::trace::BadShift(bad)));
         }
-        assert_eq!(StageShift::decode(code, 40), Some(shift));
+        let mut longer = vec![0u64; 40];
+        let r =
+            crate::trace::apply_changes(&mut KeepValues(&mut longer, &pipes), [(inside as u64, 0)]);
+        assert_eq!(r, Ok(()));
     }
 }

@@ -33,9 +33,10 @@ pub(crate) trait Sink {
     /// itself ([`Shift::Moved`]: it keeps stage 0's moving signals as they were, the walk
     /// reports stage 0, [`Sink::move_stages`] moves the later stages, the walk reports the
     /// result stage's t) or, the ring unmoved, skips them all ([`Shift::Held`]: a stall
-    /// changes nothing). For a probe that shifts stages itself, a filler lists one
-    /// [`crate::trace::StageShift`] here instead of keeping stage 0's values, and leaves the later stages
-    /// as they are.
+    /// changes nothing). For a probe that shifts stages itself, a filler lists the entry of
+    /// the ICU's `Pipeline` (declared once with the layout, which the layout's collector
+    /// records here) instead of keeping stage 0's values, and leaves the later stages as
+    /// they are.
     fn shift_stages(&mut self, stages: Stages) -> Shift {
         let _ = stages;
         Shift::Walk
