@@ -142,6 +142,11 @@ impl Pipeline {
             && self.at >= self.stride
     }
 
+    /// True when it [`Pipeline::fits`] and its shifted stages lie inside `n` values.
+    pub fn fits_in(&self, n: usize) -> bool {
+        self.fits() && self.at + self.span() <= n
+    }
+
     /// The change-list entry that says declared pipeline number `k` advanced.
     #[inline(always)]
     pub fn entry(k: u32) -> u32 {
@@ -227,7 +232,7 @@ fn start_shift<S: ChangeSink>(
     let last = sink.last().len();
     let p = sink
         .pipeline((code & !STAGE_SHIFT) as usize)
-        .filter(|p| p.fits() && p.at + p.span() <= last)
+        .filter(|p| p.fits_in(last))
         .ok_or(BadShift(code))?;
     Ok((p, p.carry(sink.last())))
 }

@@ -320,10 +320,7 @@ impl Probe for WaveWriter {
                 }
             })
             .collect();
-        if let Some(p) = pipelines
-            .iter()
-            .find(|p| !p.fits() || p.at + p.span() > signals.len())
-        {
+        if let Some(p) = pipelines.iter().find(|p| !p.fits_in(signals.len())) {
             self.fail(format!(
                 "a pipeline {p:?} that does not fit the {} signals",
                 signals.len()

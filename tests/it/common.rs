@@ -294,7 +294,7 @@ impl Evidence {
                 args.push(flag.into());
                 args.push(p.display().to_string());
             }
-            let status = std::process::Command::new(env!("CARGO_BIN_EXE_shellsim"))
+            let out = std::process::Command::new(env!("CARGO_BIN_EXE_shellsim"))
                 .args(&args)
                 .current_dir(env!("CARGO_MANIFEST_DIR"))
                 .output()?;
@@ -302,8 +302,8 @@ impl Evidence {
             lines.push(format!("  reproduce: {command}"));
             lines.push(format!(
                 "    exit status {:?}; {}",
-                status.status.code(),
-                String::from_utf8_lossy(&status.stderr).trim()
+                out.status.code(),
+                String::from_utf8_lossy(&out.stderr).trim()
             ));
             lines.push(format!(
                 "    waveform: gtkwave {} {}",
